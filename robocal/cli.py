@@ -1,0 +1,90 @@
+"""The `robocal` command. The only module that writes to the terminal."""
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from .errors import RobocalError
+
+
+def _progress(it):
+    print(f"  iteration {it.iteration:3d}   cost {it.cost:12.6g}   step {it.step_norm:10.3g}   "
+          f"damping {it.damping:9.3g}", file=sys.stderr, flush=True)
+
+
+def cmd_calibrate(args) -> int:
+    from .calibrate import calibrate
+    from .config import load_config
+    from .output import write_results
+
+    setup = load_config(args.config)
+    out = Path(args.output).resolve() if args.output else setup.output_dir
+    if out.exists() and not args.force:
+        raise RobocalError(f"{out}: output folder exists; pass --force to replace it")
+    p = setup.problem
+    print(f"robocal: {setup.robot.name}: {len(p.values)} samples, {sum(r.n_terms for r in p.residuals)} "
+          f"measurements in {len(p.residuals)} blocks, {len(p.params.free_names)} free parameters", file=sys.stderr)
+    result = calibrate(p, setup.options, progress=None if args.quiet else _progress,
+                       source=", ".join(str(t.path) for t in setup.tables.values()))
+    files = write_results(setup.robot, result, out, force=args.force, allow_failed=args.allow_failed)
+    print(result.summary())
+    print("\nWrote " + ", ".join(str(f) for f in files.values()))
+    if not result.success:
+        print(f"\nrobocal: the fit is {result.status}; no calibrated URDF written "
+              f"(--allow-failed writes it anyway)" if "urdf" not in files else "", file=sys.stderr)
+        return 3
+    return 0
+
+
+def cmd_simulate(args) -> int:
+    from .synthetic import simulate_dataset
+
+    written = simulate_dataset(args.config, args.output, seed=args.seed, force=args.force)
+    print("Wrote " + ", ".join(str(p) for p in written))
+    return 0
+
+
+def cmd_demo(args) -> int:
+    from importlib.resources import files
+
+    demo = files("robocal") / "data" / "demo" / "ur5_calibrate.yaml"
+    args.config = str(demo)
+    args.output = args.output or "robocal-demo-output"
+    return cmd_calibrate(args)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="robocal", description="Calibrate robot models from measurements.")
+    parser.add_argument("-v", "--verbose", action="store_true", help="log library messages")
+    sub = parser.add_subparsers(dest="command", required=True)
+    c = sub.add_parser("calibrate", help="fit a robot model to measurements described by a YAML config")
+    c.add_argument("config")
+    c.add_argument("-o", "--output", help="output folder (default: the config's output.dir)")
+    s = sub.add_parser("simulate", help="write a synthetic dataset (and its truth) from a YAML config")
+    s.add_argument("config")
+    s.add_argument("-o", "--output", help="CSV to write (default: the config's data.csv)")
+    s.add_argument("--seed", type=int, default=None)
+    d = sub.add_parser("demo", help="calibrate a simulated UR5 from built-in data")
+    d.add_argument("-o", "--output", help="output folder (default: ./robocal-demo-output)")
+    for p in (c, s, d):
+        p.add_argument("--force", action="store_true", help="replace existing output")
+    for p in (c, d):
+        p.add_argument("-q", "--quiet", action="store_true", help="no progress display")
+        p.add_argument("--allow-failed", action="store_true", help="write the URDF even if the fit failed")
+    args = parser.parse_args(argv)
+    logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING, format="%(name)s: %(message)s")
+    np.set_printoptions(precision=6, suppress=True)
+    handler = {"calibrate": cmd_calibrate, "simulate": cmd_simulate, "demo": cmd_demo}[args.command]
+    try:
+        return handler(args)
+    except RobocalError as exc:
+        print(f"robocal: error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,141 @@
+"""The robot at one parameter vector, and its kinematic state at each sample.
+
+`ModelState` applies a `ParameterSet` to a copy of the nominal model. `SampleState` is one sample's
+joint readings with forward kinematics run; it answers, for any frame, the pose in the measurement
+frame and how that pose moves (a LOCAL right twist: M <- M exp6(xi)) with every free parameter and
+with every read joint. Residuals only ever see this interface, which is what lets one residual serve
+serial and closed-chain robots alike.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+
+from .parameters import COMPONENTS, ParameterSet
+
+LOCAL = pin.ReferenceFrame.LOCAL
+
+
+def _exp6(v: np.ndarray) -> pin.SE3:
+    return pin.exp6(pin.Motion(np.asarray(v, dtype=float)))
+
+
+class ModelState:
+    """A calibrated copy of the robot's model for the current parameter values.
+
+    joint_names: the joints whose readings each sample provides (in that order).
+    """
+
+    def __init__(self, robot, params: ParameterSet, joint_names: list[str]):
+        self.robot, self.params, self.joint_names = robot, params, list(joint_names)
+        nominal = robot.model
+        self.model = nominal.copy()
+        self.data = self.model.createData()
+        free = params.free_names
+        self.n_free = len(free)
+        col = {n: i for i, n in enumerate(free)}
+        nj = nominal.njoints - 1
+        # Maps from "twist of a placement" / "joint velocity" to the free-parameter vector.
+        self.P_joint = np.zeros((6 * nj, self.n_free))
+        self.offsets = np.zeros(len(self.joint_names))
+        self.P_offset = np.zeros((self.model.nv, self.n_free))
+        self.P_frame: dict[int, np.ndarray] = {}
+        self.P_base = np.zeros((6, self.n_free))
+        self.base = robot_base = robot.base_placement
+        read_v = {}
+        for k, name in enumerate(self.joint_names):
+            read_v[name] = (k, self.model.joints[robot.joint_id(name)].idx_v)
+        self._read_v_index = np.array([read_v[n][1] for n in self.joint_names], dtype=int)
+        groups: dict[tuple[str, str], None] = {}
+        for p in params:
+            if p.kind in ("joint_placement", "frame_placement", "base"):
+                groups[(p.kind, p.target)] = None
+            elif p.kind == "joint_offset":
+                if p.target not in read_v:
+                    raise ValueError(f"offset parameter {p.name}: joint '{p.target}' is not read by the data")
+                k, iv = read_v[p.target]
+                self.offsets[k] = p.value
+                if p.name in col:
+                    self.P_offset[iv, col[p.name]] = 1.0
+        for kind, target in groups:
+            delta = params.placement_vector(kind, target)
+            Jr = pin.Jexp6(pin.Motion(delta))
+            cols = [(c, col.get(f"{target}.{comp}")) for c, comp in enumerate(COMPONENTS)]
+            block = np.zeros((6, self.n_free))
+            for c, j in cols:
+                if j is not None:
+                    block[:, j] = Jr[:, c]
+            if kind == "joint_placement":
+                jid = robot.joint_id(target)
+                self.model.jointPlacements[jid] = nominal.jointPlacements[jid] * _exp6(delta)
+                self.P_joint[6 * (jid - 1):6 * jid] = block
+            elif kind == "frame_placement":
+                fid = robot.frame_id(target)
+                moved = nominal.frames[fid].placement * _exp6(delta)
+                for gid, rel in robot.frames_moved_with(fid):
+                    self.model.frames[gid].placement = moved * rel
+                    self.P_frame[gid] = self.P_frame.get(gid, 0.0) + rel.inverse().toActionMatrix() @ block
+            else:
+                self.base = robot_base * _exp6(delta)
+                self.P_base = block
+        self._owner: SampleState | None = None
+
+    def sample(self, values: np.ndarray, q_guess: np.ndarray | None = None, label=None) -> "SampleState":
+        """State at one sample's joint readings (in `joint_names` order, SI units)."""
+        return SampleState(self, np.asarray(values, dtype=float), label)
+
+    def configuration(self, values: np.ndarray) -> np.ndarray:
+        return self.robot.configuration(self.joint_names, values + self.offsets)
+
+
+class SampleState:
+    """One sample: readings + forward kinematics, with cached frame quantities."""
+
+    def __init__(self, ms: ModelState, values: np.ndarray, label=None):
+        self.ms, self.values, self.label = ms, values, label
+        self.q = ms.configuration(values)
+        self._cache: dict[int, tuple] = {}
+
+    def _activate(self):
+        ms = self.ms
+        if ms._owner is not self:
+            pin.computeJointJacobians(ms.model, ms.data, self.q)
+            ms._owner = self
+
+    def _frame(self, frame) -> tuple:
+        fid = frame if isinstance(frame, int) else self.ms.robot.frame_id(frame)
+        hit = self._cache.get(fid)
+        if hit is None:
+            self._activate()
+            ms = self.ms
+            oMf = pin.updateFramePlacement(ms.model, ms.data, fid).copy()
+            Jq = pin.getFrameJacobian(ms.model, ms.data, fid, LOCAL).reshape(6, -1).copy()
+            hit = [ms.base * oMf, oMf, Jq, None]
+            self._cache[fid] = hit
+        return hit
+
+    def pose(self, frame) -> pin.SE3:
+        """World (measurement-frame) pose of a frame."""
+        return self._frame(frame)[0]
+
+    def frame_joint_jacobian(self, frame) -> np.ndarray:
+        """(6, n_read) LOCAL twist of the frame per unit of each read joint."""
+        return self._frame(frame)[2][:, self.ms._read_v_index]
+
+    def frame_parameter_jacobian(self, frame) -> np.ndarray:
+        """(6, n_free) LOCAL twist of the frame per unit of each free parameter."""
+        hit = self._frame(frame)
+        if hit[3] is None:
+            ms = self.ms
+            fid = frame if isinstance(frame, int) else ms.robot.frame_id(frame)
+            self._activate()
+            J = hit[2] @ ms.P_offset
+            if ms.P_joint.any():
+                reg = pin.computeFrameKinematicRegressor(ms.model, ms.data, fid, LOCAL)
+                J += reg @ ms.P_joint
+            if fid in ms.P_frame:
+                J += ms.P_frame[fid]
+            if ms.P_base.any():
+                J += hit[1].inverse().toActionMatrix() @ ms.P_base
+            hit[3] = J
+        return hit[3]

@@ -1,0 +1,52 @@
+"""The output folder of a calibration: calibrated URDF, result JSON, summary text.
+
+Everything is written into a temporary folder beside the target, which is renamed into place only
+when complete: a failure leaves no half-written output behind.
+"""
+from __future__ import annotations
+
+import shutil
+import tempfile
+from pathlib import Path
+
+from .errors import InputError
+from .export import calibrated_urdf
+
+
+def write_results(robot, result, out_dir: str | Path, force: bool = False, allow_failed: bool = False,
+                  extra: dict[str, bytes] | None = None) -> dict[str, Path]:
+    """Write result.json, summary.txt and (for a successful fit) the calibrated URDF.
+
+    Returns {kind: final path}. An existing folder is replaced only with force=True.
+    """
+    out = Path(out_dir).resolve()
+    if out.exists() and not force:
+        raise InputError("output folder exists; pass --force to replace it", source=str(out))
+    if robot.urdf_path is not None and Path(robot.urdf_path).resolve().parent == out:
+        raise InputError("the output folder holds the input URDF; choose another folder", source=str(out))
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(dir=out.parent, prefix=f".{out.name}."))
+    files: dict[str, Path] = {}
+    try:
+        (tmp / "result.json").write_text(result.to_json() + "\n")
+        (tmp / "summary.txt").write_text(result.summary() + "\n")
+        files["result"], files["summary"] = out / "result.json", out / "summary.txt"
+        if robot.urdf_text and (result.success or allow_failed):
+            name = f"{Path(robot.urdf_path).stem if robot.urdf_path else robot.name}_calibrated.urdf"
+            (tmp / name).write_bytes(calibrated_urdf(robot, result.params))
+            files["urdf"] = out / name
+        for name, content in (extra or {}).items():
+            (tmp / name).write_bytes(content)
+            files[name] = out / name
+        if out.exists():
+            old = out.with_name(f".{out.name}.old")
+            shutil.rmtree(old, ignore_errors=True)
+            out.rename(old)
+            tmp.rename(out)
+            shutil.rmtree(old, ignore_errors=True)
+        else:
+            tmp.rename(out)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return files

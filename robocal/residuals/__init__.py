@@ -1,0 +1,16 @@
+"""Measurement types. Each is one small file; `REGISTRY` maps config names to classes."""
+from .ball_bar import BallBarResidual
+from .base import Residual, Term
+from .cylinder import CylinderResidual
+from .laser_line import LaserLineResidual
+from .plane import PlaneResidual
+from .point import PointResidual
+from .pose import PoseResidual
+from .rigid_points import RigidPointsResidual
+from .sphere import SphereResidual
+
+REGISTRY: dict[str, type[Residual]] = {cls.type_name: cls for cls in (
+    PoseResidual, PointResidual, RigidPointsResidual, PlaneResidual, SphereResidual, CylinderResidual,
+    BallBarResidual, LaserLineResidual)}
+
+__all__ = ["Residual", "Term", "REGISTRY", *[c.__name__ for c in REGISTRY.values()]]
