@@ -1,12 +1,13 @@
 """Which parameters the data can determine, and how well.
 
-Base-parameter selection is a greedy pivoted QR on unit-norm columns with a deterministic tie-break:
-at each step the column with the largest remaining norm (its distance to the span of the columns
-already chosen) is taken; columns whose remaining norm is within a relative `TIE` of the largest count
-as tied, and the first in parameter order wins. So parameters that are exact twins (a revolute joint's
-offset and its placement's rotation about the same axis) always resolve the same way, whatever
-floating-point noise the platform adds. A column is dependent when its remaining norm falls below
-`rtol` (1 = orthogonal to everything chosen, 0 = a combination of them).
+Base-parameter selection walks the parameters in their declared order and keeps each one whose
+unit-scaled Jacobian column stands out of the span of the columns already kept by more than `rtol`
+(its remaining norm: 1 = orthogonal to everything kept, 0 = a combination of it). The result depends
+only on the order and on the column geometry, never on floating-point ties, so the same data give
+the same set on every machine; and it is predictable: robocal's presets put the measurement frame
+first, then the joints from root to tip, then frames on the robot, so a later parameter is the one
+dropped when two cannot be told apart (a revolute joint's offset is kept, its placement's rotation
+about the same axis dropped). The condition number of the kept block is reported alongside.
 """
 from __future__ import annotations
 
@@ -15,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg
 
-TIE = 1e-6
+NEGLIGIBLE = 1e-12
 
 
 @dataclass
@@ -73,7 +74,9 @@ def select_base_parameters(J: np.ndarray, names: list[str] | None = None, rtol: 
     m, n = J.shape
     names = list(names) if names is not None else [f"p{i}" for i in range(n)]
     norms = np.linalg.norm(J, axis=0)
-    live = norms > 0
+    # A column this small next to the largest is rounding noise (a point on a joint's own axis, say):
+    # normalising it would turn the noise into a spurious independent direction.
+    live = norms > NEGLIGIBLE * (norms.max() if n else 0.0)
     scaled = np.zeros_like(J)
     scaled[:, live] = J[:, live] / norms[live]
     # Same column geometry in an n x n matrix: R^T R = J^T J.
@@ -81,23 +84,17 @@ def select_base_parameters(J: np.ndarray, names: list[str] | None = None, rtol: 
     singular = np.linalg.svd(W, compute_uv=False) if n else np.zeros(0)
     chosen: list[int] = []
     basis: list[np.ndarray] = []
-    remaining = [j for j in range(n) if live[j]]
-    R = W.copy()
-    while remaining:
-        rn = np.linalg.norm(R[:, remaining], axis=0)
-        best = rn.max()
-        if best <= rtol:
-            break
-        j = next(c for c, v in zip(remaining, rn) if v >= best * (1.0 - TIE))
-        chosen.append(j)
-        remaining.remove(j)
+    for j in range(n):
+        if not live[j]:
+            continue
         qv = W[:, j].copy()
         for _ in range(2):  # Gram-Schmidt twice: orthogonal to working precision
             for b in basis:
                 qv -= b * (b @ qv)
-        qv /= np.linalg.norm(qv)
-        basis.append(qv)
-        R -= np.outer(qv, qv @ R)
+        remaining_norm = np.linalg.norm(qv)
+        if remaining_norm > rtol:
+            chosen.append(j)
+            basis.append(qv / remaining_norm)
     independent = sorted(chosen)
     dependent = [j for j in range(n) if j not in chosen]
     if independent and dependent:

@@ -115,6 +115,11 @@ class ParameterSet:
                 self._params[n].vary = True
         return self
 
+    def reorder(self, rank) -> None:
+        """Stable re-sort by rank(parameter) (the order is the identifiability tie-break)."""
+        items = sorted(self._params.items(), key=lambda kv: rank(kv[1]))
+        self._params = dict(items)
+
     def set_values(self, values: dict[str, float]) -> "ParameterSet":
         for n, v in values.items():
             self[n].value = float(v)

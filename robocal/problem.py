@@ -15,6 +15,9 @@ from .residuals.base import Residual
 from .residuals.prior import prior_rows
 
 
+KIND_ORDER = {"base": 0, "auxiliary": 1}
+
+
 @dataclass
 class Evaluation:
     r: np.ndarray            # (m,) scaled residual
@@ -49,6 +52,9 @@ class Problem:
             bad = [s for s in res.samples if not 0 <= s < len(self.values)]
             if bad:
                 raise ValueError(f"residual '{res.name}' refers to sample {bad[0]}, outside 0..{len(self.values) - 1}")
+        # Identifiability keeps the earlier of two parameters it cannot tell apart: the measurement frame
+        # first, then the measurement set-up (plane, sphere centre, marker points), then the robot.
+        params.reorder(lambda p: KIND_ORDER.get(p.kind, 2))
         self.blocks = self._layout()
 
     def _layout(self) -> list[Block]:

@@ -45,7 +45,7 @@ def random_configurations(robot, joint_names: list[str], n: int, rng: np.random.
 
 
 def simulate_measurements(problem: Problem, truth: ParameterSet, rng: np.random.Generator,
-                          max_iterations: int = 50) -> None:
+                          max_iterations: int = 100) -> None:
     """Fill `problem`'s measurements (and, for contact types, its joint readings) from `truth`.
 
     Contact-type residuals must own their samples (no other residual may use them).
@@ -71,18 +71,33 @@ def simulate_measurements(problem: Problem, truth: ParameterSet, rng: np.random.
         problem.params = saved
 
 
-def _project(res, k, ms, values, aux, rng, max_iterations):
-    """Move the read joints until residual term k equals a noise draw (min-norm Gauss-Newton)."""
+def _project(res, k, ms, values, aux, rng, max_iterations, max_step=0.3):
+    """Move the read joints until residual term k equals a noise draw.
+
+    Min-norm Gauss-Newton on the joints, each step limited to `max_step` rad and halved while it does
+    not reduce the error (contacts far from the start would otherwise overshoot).
+    """
     target = rng.normal(0.0, res.sigma)
     i = int(res.samples[k])
+
+    def error(v):
+        s = ms.sample(v)
+        t = res.evaluate(k, {i: s}, aux)
+        return t.r - target, t, s
+
+    err, t, s = error(values.copy())
     values = values.copy()
     for _ in range(max_iterations):
-        s = ms.sample(values)
-        states = {i: s}
-        t = res.evaluate(k, states, aux)
-        err = t.r - target
         if np.max(np.abs(err)) < 1e-13:
             return values
-        Jq = sum(D @ states[j].frame_joint_jacobian(f) for j, f, D in t.frames)
-        values = values - np.linalg.lstsq(Jq, err, rcond=None)[0]
+        Jq = sum(D @ s.frame_joint_jacobian(f) for _, f, D in t.frames)
+        dq = -np.linalg.lstsq(Jq, err, rcond=None)[0]
+        dq *= min(1.0, max_step / max(np.max(np.abs(dq)), 1e-300))
+        for _ in range(30):
+            trial = error(values + dq)
+            if np.linalg.norm(trial[0]) < np.linalg.norm(err):
+                break
+            dq /= 2
+        values = values + dq
+        err, t, s = trial
     raise RobocalError(f"simulation: could not bring sample {i} onto '{res.name}' (unreachable contact?)")
