@@ -1,0 +1,99 @@
+"""Speed and accuracy of the floating-nut hexapod kinematics (one core). Prints two tables.
+
+Run: OMP_NUM_THREADS=1 python benchmarks/floating_nut_kinematics.py
+Targets (issue 5): compensated IK > 200,000 poses/s in batch; FK < 50 us per solve.
+"""
+import os
+
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+import time  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+from robocal.mechanisms.floating_nut_geometry import reference_fixture  # noqa: E402
+from robocal.mechanisms.floating_nut_kinematics import FloatingNutKinematics  # noqa: E402
+
+DEG = np.pi / 180
+
+
+def poses(kin, n, seed=0):
+    rng = np.random.default_rng(seed)
+    return kin.geometry.p0 + np.hstack([rng.uniform(-0.1, 0.1, (n, 3)), rng.uniform(-10, 10, (n, 3)) * DEG])
+
+
+def best_time(fn, repeat=5):
+    """Best wall time of `repeat` runs, s (the least disturbed by the other users of the machine)."""
+    times = []
+    for _ in range(repeat):
+        t = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t)
+    return min(times)
+
+
+def speed_rows(kin):
+    rows = []
+    for n in (1_000, 100_000):
+        P = poses(kin, n)
+        t = best_time(lambda: kin.ik(P))
+        rows.append((f"IK compensated, batch {n}", n / t, t / n * 1e6, "target > 200k/s"))
+        t = best_time(lambda: kin.ik(P, compensate=False))
+        rows.append((f"IK uncompensated, batch {n}", n / t, t / n * 1e6, ""))
+    P = poses(kin, 10_000)
+    t = best_time(lambda: kin.jacobian(P))
+    rows.append(("Jacobian J_c, batch 10000", 1e4 / t, t / 1e4 * 1e6, ""))
+    for n in (1_000, 10_000):
+        P = poses(kin, n)
+        lc = kin.ik(P)
+        for mode in ("full", "uncompensated"):
+            t = best_time(lambda: kin.fk(lc, jacobian=mode), repeat=3)
+            rows.append((f"FK cold ({mode} J), batch {n}", n / t, t / n * 1e6, "target < 50 us"))
+        t = best_time(lambda: kin.fk(lc, p_init=P + 1e-4), repeat=3)
+        rows.append((f"FK warm (1e-4 step), batch {n}", n / t, t / n * 1e6, ""))
+    P = poses(kin, 200)
+    lc = kin.ik(P)
+    t = best_time(lambda: [kin.ik(p) for p in P], repeat=3)
+    rows.append(("IK single call", 200 / t, t / 200 * 1e6, "numpy call overhead"))
+    t = best_time(lambda: [kin.fk(l) for l in lc], repeat=3)
+    rows.append(("FK single call, cold", 200 / t, t / 200 * 1e6, "numpy call overhead"))
+    t = best_time(lambda: [kin.fk(l, p_init=p + 1e-4, warn_condition=None) for l, p in zip(lc, P)], repeat=3)
+    rows.append(("FK single call, warm", 200 / t, t / 200 * 1e6, ""))
+    return rows
+
+
+def accuracy_rows(kin):
+    P = poses(kin, 10_000, seed=1)
+    lc, d = kin.ik(P, return_details=True)
+    full = kin.fk(lc)
+    quasi = kin.fk(lc, jacobian="uncompensated")
+    wrong = kin.fk(lc, compensate=False).pose - P
+    pos_err = np.linalg.norm(wrong[:, :3], axis=1)
+    return [
+        ("max |theta| over the box [deg]", np.abs(d.theta).max() / DEG),
+        ("mean per-pose max |theta| [deg]", np.abs(d.theta).max(axis=1).mean() / DEG),
+        ("max |l_a| [um]", np.abs(d.additional).max() * 1e6),
+        ("uncompensated FK position error, max [um]", pos_err.max() * 1e6),
+        ("uncompensated FK position error, mean [um]", pos_err.mean() * 1e6),
+        ("uncompensated FK angle error, max [mdeg]", np.abs(wrong[:, 3:]).max() / DEG * 1e3),
+        ("FK round trip, max pose error", np.abs(full.pose - P).max()),
+        ("FK iterations full J: mean / max", f"{full.iterations.mean():.2f} / {full.iterations.max()}"),
+        ("FK iterations J_l only: mean / max", f"{quasi.iterations.mean():.2f} / {quasi.iterations.max()}"),
+        ("cond(J_c) at home", np.linalg.cond(kin.jacobian(kin.geometry.p0))),
+    ]
+
+
+def main():
+    kin = FloatingNutKinematics(reference_fixture())
+    print("floating-nut hexapod kinematics, seed-002 fixture, box +-0.1 m / +-10 deg, one core")
+    print(f"{'operation':40s} {'per second':>14s} {'us each':>10s}  note")
+    for name, rate, us, note in speed_rows(kin):
+        print(f"{name:40s} {rate:14,.0f} {us:10.2f}  {note}")
+    print()
+    print(f"{'accuracy over 10,000 random poses':45s} value")
+    for name, value in accuracy_rows(kin):
+        print(f"{name:45s} {value if isinstance(value, str) else f'{value:.4g}'}")
+
+
+if __name__ == "__main__":
+    main()
