@@ -1,0 +1,82 @@
+"""The path generator (spec §4, block 400): one call per control tick (typically 4 ms).
+
+tick(wrench): 410/420 eps = f_des - u . F[:3] at s_des; 460/470 projected limits at s_des;
+430/440 limited integral regulator; 450/500 q_des = g(s) (MOVEJF) or IK(f(s)) warm-started from
+the previous setpoint (MOVELF). The wrench is the robot's force on its environment (world axes).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+
+from ..errors import InputError
+from .instructions import MotionInstruction
+from .inverse_kinematics import solve_ik
+from .limits import project_limits
+from .regulator import TangentialForceRegulator
+
+
+@dataclass
+class Setpoint:
+    """One tick's output: q_des (nq,), s, sd 1/s, sdd 1/s^2, eps N, and the limits used."""
+
+    q_des: np.ndarray
+    s: float
+    sd: float
+    sdd: float
+    eps: float
+    sd_max: float
+    sdd_max: float
+
+
+class PathGenerator:
+    """Runs one MotionInstruction. period s (4 ms by default); ik_tolerance on |log6| of the pose."""
+
+    def __init__(self, model: pin.Model, instruction: MotionInstruction, period: float = 0.004,
+                 ik_tolerance: float = 1e-10):
+        self.model, self.data = model, model.createData()
+        self.instruction, self.period, self.ik_tolerance = instruction, float(period), ik_tolerance
+        p = instruction.params
+        self.regulator = TangentialForceRegulator(p.gain if p.gain is not None else 1.0, period,
+                                                  braking=p.braking and not p.blend)
+        self.q_des = instruction.q_start.copy()
+
+    @property
+    def s(self) -> float:
+        return self.regulator.state.s
+
+    @property
+    def finished(self) -> bool:
+        st = self.regulator.state
+        return st.s >= 1.0 and st.sd == 0.0
+
+    def limits(self, s: float) -> tuple[float, float]:
+        """Projected (sd_max, sdd_max) at s."""
+        ins, p = self.instruction, self.instruction.params
+        _, df, ddf = ins.path.derivatives(s)
+        if p.qd_max is not None and ins.kind == "joint":
+            _, dh, ddh = ins.path.joint_derivatives(s)
+            return project_limits(df, ddf, p.v_max, p.a_max, p.c, dh, ddh, p.qd_max, p.qdd_max)
+        return project_limits(df, ddf, p.v_max, p.a_max, p.c)
+
+    def tick(self, wrench: np.ndarray) -> Setpoint:
+        """Advance one period given the latest external wrench (6,) or force (3,) N."""
+        ins, p = self.instruction, self.instruction.params
+        force = np.asarray(wrench, float)[:3]
+        if not np.all(np.isfinite(force)):
+            raise InputError("external force signal is not finite", field="wrench")
+        s = self.regulator.state.s
+        _, df, ddf = ins.path.derivatives(s)
+        norm_df = float(np.linalg.norm(df))
+        eps = ins.force - float(df @ force) / norm_df
+        sd_max, sdd_max = self.limits(s)
+        gain = p.admittance / norm_df if p.admittance is not None else p.gain
+        st = self.regulator.step(eps, sd_max, sdd_max, gain)
+        if ins.kind == "joint":
+            self.q_des = ins.path.q_of_s(st.s)
+        else:
+            self.q_des = solve_ik(self.model, self.data, ins.frame_id, ins.path.pose(st.s), self.q_des,
+                                  self.ik_tolerance)
+        return Setpoint(self.q_des.copy(), st.s, st.sd, st.sdd, eps, sd_max, sdd_max)

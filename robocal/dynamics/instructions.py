@@ -1,0 +1,114 @@
+"""Motion instructions MOVEJF / MOVELF (spec §3, blocks 200-300) and their validation.
+
+An instruction carries the path shape, the tangential-force setpoint f_des (N, the force the tool
+should exert along the path) and the motion parameters. Everything is checked before execution:
+finite f_des, v_max and a_max > 0, c in (0, 1), a non-degenerate path and, for MOVELF, an inverse
+kinematics solution all along the line (so the setpoints cannot fail mid-motion).
+"""
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, field
+
+import numpy as np
+import pinocchio as pin
+
+from ..errors import InputError
+from .inverse_kinematics import IKFailure, solve_ik
+from .limits import check_c
+from .path import JointPath, LinearPath
+
+log = logging.getLogger(__name__)
+
+
+@dataclass
+class MotionParams:
+    """v_max m/s and a_max m/s^2 on the TCP translation; c in (0, 1) (Eq. 5); admittance m/(N s)
+    sets the regulator gain K = admittance/|f'| (spec §13.14), or give `gain` K in 1/(N s) directly;
+    blend: the motion continues into the next one (no braking at s = 1); joint limits optional
+    (rad/s, rad/s^2 per velocity coordinate)."""
+
+    v_max: float
+    a_max: float
+    c: float = 0.9
+    admittance: float | None = None
+    gain: float | None = None
+    blend: bool = False
+    braking: bool = False
+    qd_max: np.ndarray | None = None
+    qdd_max: np.ndarray | None = None
+
+    def validate(self) -> None:
+        for name in ("v_max", "a_max"):
+            value = getattr(self, name)
+            if not (np.isfinite(value) and value > 0):
+                raise InputError(f"{name} must be a finite number > 0, got {value}", field=name)
+        check_c(self.c)
+        if (self.admittance is None) == (self.gain is None):
+            raise InputError("give exactly one of admittance (m/(N s)) or gain (1/(N s))", field="admittance")
+        k = self.admittance if self.gain is None else self.gain
+        if not (np.isfinite(k) and k > 0):
+            raise InputError(f"regulator admittance/gain must be > 0, got {k}", field="admittance")
+        if (self.qd_max is None) != (self.qdd_max is None):
+            raise InputError("give both joint velocity and acceleration limits, or neither", field="qd_max")
+
+
+@dataclass
+class MotionInstruction:
+    """A validated MOVEJF / MOVELF. kind 'joint' or 'linear'; force f_des N; frame_id the tool;
+    q_start the configuration the motion starts from (the end of the previous one)."""
+
+    kind: str
+    path: object
+    force: float
+    params: MotionParams
+    frame_id: int
+    q_start: np.ndarray = field(repr=False)
+
+
+def _check_force(force: float) -> float:
+    if not np.isfinite(force):
+        raise InputError(f"force setpoint must be finite, got {force}", field="force")
+    if force < 0:
+        log.warning("negative tangential force setpoint %.3g N: the tool will pull along the path", force)
+    return float(force)
+
+
+def movejf(model: pin.Model, frame_id: int, q_start: np.ndarray, q_target: np.ndarray,
+           params: MotionParams, force: float) -> MotionInstruction:
+    """Joint-interpolated motion from q_start to q_target (nq,) with tangential force `force` N."""
+    params.validate()
+    f = _check_force(force)
+    q_target = np.asarray(q_target, float)
+    if q_target.shape != (model.nq,) or not np.all(np.isfinite(q_target)):
+        raise InputError(f"target must be {model.nq} finite joint values", field="position")
+    lo, hi = model.lowerPositionLimit, model.upperPositionLimit
+    if np.any(q_target < lo - 1e-12) or np.any(q_target > hi + 1e-12):
+        raise InputError("target outside the joint limits", field="position")
+    path = JointPath(model, frame_id, q_start, q_target)
+    for s in np.linspace(0, 1, 17):          # a joint move whose TCP stays still has no tangent
+        if np.linalg.norm(path.derivatives(s)[1]) < 1e-9:
+            raise InputError(f"degenerate joint path: the tool does not translate at s = {s:.3f}",
+                             field="position")
+    return MotionInstruction("joint", path, f, params, frame_id, np.array(q_start, float))
+
+
+def movelf(model: pin.Model, frame_id: int, q_start: np.ndarray, target: pin.SE3, params: MotionParams,
+           force: float, ik_tolerance: float = 1e-10, check_points: int = 21) -> MotionInstruction:
+    """Straight-line motion of the tool to `target` (world pose) with tangential force `force` N."""
+    params.validate()
+    f = _check_force(force)
+    data = model.createData()
+    pin.framesForwardKinematics(model, data, np.asarray(q_start, float))
+    start = data.oMf[frame_id].copy()
+    path = LinearPath(start, target) if np.linalg.norm(target.translation - start.translation) > 1e-9 \
+        else None
+    if path is None:
+        raise InputError("degenerate straight line: target position equals the start position", field="position")
+    q = np.array(q_start, float)
+    for s in np.linspace(0, 1, check_points):
+        try:
+            q = solve_ik(model, data, frame_id, path.pose(s), q, ik_tolerance)
+        except IKFailure as exc:
+            raise InputError(f"the line is not reachable at s = {s:.3f}: {exc.reason}", field="position") from exc
+    return MotionInstruction("linear", path, f, params, frame_id, np.array(q_start, float))
