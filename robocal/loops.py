@@ -1,17 +1,499 @@
-"""Loop closures read from URDF.
+"""Loop closures: read them from URDF, evaluate their constraint rows, assemble closed chains.
 
-This module currently only detects closure elements; closed-chain kinematics come with the
-parallel-machine support.
+A closed chain is its URDF spanning tree (loaded by Pinocchio) plus closure elements that URDF
+readers ignore. Two conventions are read:
+
+* robocal's written format, Drake's legacy ``<loop_joint>``::
+
+    <loop_joint name="leg1_top" type="spherical|fixed|distance|revolute" [length="0.3"]>
+      <link1 link="leg1_rod" xyz="0 0 0" rpy="0 0 0"/>
+      <link2 link="platform" xyz="0.2 0.05 0" rpy="0 0 0"/>
+      [<axis xyz="0 0 1"/>]            <!-- revolute only, in the link1 anchor frame -->
+    </loop_joint>
+
+* URDF+ (arXiv 2411.19753): ``<loop>`` (or ``<constraint>``) naming a predecessor and a successor
+  link, each with an optional ``<origin>``; type fixed, revolute/continuous (``<axis>``) and, as a
+  robocal extension, spherical. ``<coupling>`` (or ``<constraint type="coupling">``) with
+  ``<ratio value>`` is stored in ``LoopSet.couplings`` (a screw or gear ties two joints; the
+  actuator layer applies it, the assembly here does not).
+
+plus ``<actuated joints="j1 j2 ..."/>`` (or, failing that, the joints of ``<transmission>``
+elements). Each closure k is anchored on two Pinocchio frames ``<name>.link1`` and ``<name>.link2``
+that are added to ``robot.model``; moving a loop anchor is therefore a frame-placement edit.
+
+Constraint kinds (rows): point 3, frame 6, distance 1, revolute 5. Derivatives are taken with
+respect to a LOCAL right twist xi = [v; w] of each anchor frame (M <- M exp6(xi)).
 """
 from __future__ import annotations
 
-from .errors import InputError
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+from scipy.linalg.lapack import dposv
+
+from .errors import AssemblyError, InputError
+
+log = logging.getLogger(__name__)
+
+ROWS = {"point": 3, "frame": 6, "distance": 1, "revolute": 5}
+# closure `type` attribute -> kind, per convention
+_DRAKE_KINDS = {"spherical": "point", "ball": "point", "fixed": "frame", "distance": "distance",
+                "revolute": "revolute", "continuous": "revolute"}
+_URDFPLUS_KINDS = {"spherical": "point", "ball": "point", "fixed": "frame",
+                   "revolute": "revolute", "continuous": "revolute"}
+
+
+@dataclass(frozen=True)
+class Closure:
+    """One loop closure between frames `frame1` and `frame2` (names of Pinocchio frames).
+
+    kind    "point" | "frame" | "distance" | "revolute"
+    rows    number of constraint rows
+    length  target distance (m) for the distance kind, else 0
+    axis    (3,) unit hinge axis in the frame1 anchor frame (revolute kind), else None
+    """
+
+    name: str
+    kind: str
+    frame1: str
+    frame2: str
+    rows: int
+    length: float = 0.0
+    axis: tuple | None = None
+
+
+@dataclass(frozen=True)
+class Coupling:
+    """A URDF+ coupling: velocity of `successor_joint` = ratio * velocity of `predecessor_joint`."""
+
+    name: str
+    predecessor_joint: str
+    successor_joint: str
+    ratio: float
+
+
+def _skew(a: np.ndarray) -> np.ndarray:
+    return np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
+
+
+def _orthonormal_pair(a: np.ndarray) -> np.ndarray:
+    """(2, 3): two unit vectors orthogonal to unit `a` and to each other."""
+    helper = np.eye(3)[int(np.argmin(np.abs(a)))]
+    e1 = np.cross(a, helper)
+    e1 /= np.linalg.norm(e1)
+    return np.vstack([e1, np.cross(a, e1)])
+
+
+class LoopSet:
+    """The closures and the actuated/passive split of a closed-chain robot.
+
+    closures   list of Closure
+    couplings  list of Coupling (stored, not enforced by `assemble`)
+    actuated   names of the joints read by encoders (1-dof joints)
+    passive    names of the other joints with degrees of freedom
+    n_rows     total number of constraint rows
+    actuated_v, passive_v   index arrays into the velocity vector (nv,)
+    """
+
+    def __init__(self, model: pin.Model, closures: list[Closure], actuated: list[str],
+                 couplings: list[Coupling] | None = None):
+        self.closures = list(closures)
+        self.couplings = list(couplings or [])
+        self.actuated = list(actuated)
+        self.n_rows = int(sum(c.rows for c in self.closures))
+        self._ids = [(model.getFrameId(c.frame1), model.getFrameId(c.frame2)) for c in self.closures]
+        self._slices = []
+        start = 0
+        for c in self.closures:
+            self._slices.append(slice(start, start + c.rows))
+            start += c.rows
+        points = [k for k, c in enumerate(self.closures) if c.kind == "point"]
+        self._other = [k for k, c in enumerate(self.closures) if c.kind != "point"]
+        self._point_ids1 = [self._ids[k][0] for k in points]
+        self._point_ids2 = [self._ids[k][1] for k in points]
+        self._point_rows = np.array([r for k in points for r in range(self._slices[k].start, self._slices[k].stop)],
+                                    dtype=int)
+        names = [model.names[j] for j in range(1, model.njoints) if model.joints[j].nv > 0]
+        self.passive = [n for n in names if n not in self.actuated]
+        self._act_joints = [model.joints[model.getJointId(n)] for n in self.actuated]
+        self.actuated_v = np.array([j.idx_v for j in self._act_joints], dtype=int)
+        self.passive_v = np.concatenate(
+            [np.arange(model.joints[model.getJointId(n)].idx_v,
+                       model.joints[model.getJointId(n)].idx_v + model.joints[model.getJointId(n)].nv)
+             for n in self.passive]).astype(int) if self.passive else np.zeros(0, dtype=int)
+
+    # ---- configurations ------------------------------------------------------------------
+    def set_actuated(self, q: np.ndarray, values) -> np.ndarray:
+        """Copy of q (nq,) with the actuated joints at `values` (n_act,), SI (m or rad)."""
+        values = np.asarray(values, dtype=float).reshape(-1)
+        if values.size != len(self.actuated):
+            raise InputError(f"expected {len(self.actuated)} actuated readings "
+                             f"({', '.join(self.actuated)}), got {values.size}", field="actuated")
+        q = np.array(q, dtype=float)
+        for j, value in zip(self._act_joints, values):
+            if j.nq == 1:
+                q[j.idx_q] = value
+            else:  # continuous joint stored as (cos, sin)
+                q[j.idx_q], q[j.idx_q + 1] = np.cos(value), np.sin(value)
+        return q
+
+    def actuated_values(self, q: np.ndarray) -> np.ndarray:
+        """Readings (n_act,) of the actuated joints in configuration q."""
+        out = np.empty(len(self._act_joints))
+        for k, j in enumerate(self._act_joints):
+            out[k] = q[j.idx_q] if j.nq == 1 else np.arctan2(q[j.idx_q + 1], q[j.idx_q])
+        return out
+
+    # ---- constraint rows -----------------------------------------------------------------
+    def closure_error(self, poses1, poses2):
+        """Stacked constraint vector and its derivatives w.r.t. each anchor frame.
+
+        poses1[k], poses2[k]: world SE3 of closure k's two frames.
+        Returns c (n_rows,), D1 and D2: lists with D1[k], D2[k] of shape (rows_k, 6), the derivative
+        of closure k's rows w.r.t. a LOCAL right twist [v; w] of its frame 1 / frame 2.
+        """
+        c = np.empty(self.n_rows)
+        D1, D2 = [], []
+        for closure, sl, M1, M2 in zip(self.closures, self._slices, poses1, poses2):
+            ck, d1, d2 = _closure_rows(closure, M1, M2)
+            c[sl] = ck
+            D1.append(d1)
+            D2.append(d2)
+        return c, D1, D2
+
+    def constraint_jacobian(self, model: pin.Model, data: pin.Data, q: np.ndarray):
+        """c (n_rows,) and dc/dv (n_rows, model.nv) at q, for q <- integrate(q, v).
+
+        Runs computeJointJacobians and updateFramePlacements on `data`.
+        """
+        pin.computeJointJacobians(model, data, q)
+        pin.updateFramePlacements(model, data)
+        c = np.empty(self.n_rows)
+        jac = np.empty((self.n_rows, model.nv))
+        local = pin.ReferenceFrame.LOCAL
+        oMf = data.oMf
+        if self._point_rows.size:  # point closures (the common case) in one batch:
+            # rows = [-I, [c]x] J1 + [R12, 0] J2, numpy calls shared by all of them
+            h1 = np.array([oMf[i].homogeneous for i in self._point_ids1])
+            h2 = np.array([oMf[i].homogeneous for i in self._point_ids2])
+            j1 = np.array([pin.getFrameJacobian(model, data, i, local) for i in self._point_ids1])
+            j2 = np.array([pin.getFrameJacobian(model, data, i, local) for i in self._point_ids2])
+            r1t = np.swapaxes(h1[:, :3, :3], 1, 2)
+            cp = r1t @ (h2[:, :3, 3:] - h1[:, :3, 3:])  # (k, 3, 1)
+            w = j1[:, 3:]
+            x, y, z = cp[:, 0], cp[:, 1], cp[:, 2]
+            cross = np.stack([y * w[:, 2] - z * w[:, 1], z * w[:, 0] - x * w[:, 2], x * w[:, 1] - y * w[:, 0]], 1)
+            c[self._point_rows] = cp.reshape(-1)
+            jac[self._point_rows] = (cross - j1[:, :3] + (r1t @ h2[:, :3, :3]) @ j2[:, :3]).reshape(-1, model.nv)
+        for k in self._other:
+            closure, sl, (i1, i2) = self.closures[k], self._slices[k], self._ids[k]
+            ck, d1, d2 = _closure_rows(closure, oMf[i1], oMf[i2])
+            c[sl] = ck
+            jac[sl] = (d1 @ pin.getFrameJacobian(model, data, i1, local).reshape(6, -1)
+                       + d2 @ pin.getFrameJacobian(model, data, i2, local).reshape(6, -1))
+        return c, jac
+
+    def constraint_error(self, model: pin.Model, data: pin.Data, q: np.ndarray) -> np.ndarray:
+        """c (n_rows,) at q (forward kinematics only, no Jacobians)."""
+        pin.framesForwardKinematics(model, data, q)
+        return self.closure_error([data.oMf[i] for i, _ in self._ids],
+                                  [data.oMf[i] for _, i in self._ids])[0]
+
+
+def _closure_rows(closure: Closure, M1: pin.SE3, M2: pin.SE3):
+    """(c_k, D1_k, D2_k) of one closure; see LoopSet.closure_error."""
+    R1, R2 = M1.rotation, M2.rotation
+    kind = closure.kind
+    if kind == "frame":
+        M12 = M1.actInv(M2)
+        jl = pin.Jlog6(M12)
+        return pin.log6(M12).vector, -jl @ M12.inverse().action, jl
+    d = M2.translation - M1.translation
+    if kind == "distance":
+        n = np.linalg.norm(d)
+        u = d / n if n > 0 else np.zeros(3)  # coincident points: no direction, derivative 0
+        d1, d2 = np.zeros((1, 6)), np.zeros((1, 6))
+        d1[0, :3] = -(R1.T @ u)
+        d2[0, :3] = R2.T @ u
+        return np.array([n - closure.length]), d1, d2
+    cp = R1.T @ d
+    R12 = R1.T @ R2
+    d1 = np.zeros((ROWS[kind], 6))
+    d2 = np.zeros((ROWS[kind], 6))
+    d1[:3, :3] = -np.eye(3)
+    d1[:3, 3:] = _skew(cp)
+    d2[:3, :3] = R12
+    if kind == "point":
+        return cp, d1, d2
+    # revolute: point rows + the hinge axes stay aligned (two components of R12 a across a)
+    a = np.asarray(closure.axis)
+    E = _orthonormal_pair(a)
+    b = R12 @ a
+    d1[3:, 3:] = E @ _skew(b)
+    d2[3:, 3:] = -E @ R12 @ _skew(a)
+    return np.concatenate([cp, E @ b]), d1, d2
+
+
+# ---- solving --------------------------------------------------------------------------------
+def _solve(model, q, residual_jacobian, free_v, tol, max_iter, sample, what, singular_rcond):
+    """Damped Gauss-Newton (Levenberg-Marquardt with mu = |c|^2) plus backtracking line search.
+
+    residual_jacobian(q) -> (c, J) with J (m, nv); only the columns `free_v` move.
+    Converges when max|c| < tol; raises AssemblyError naming `sample` otherwise, or when the
+    solution is singular (smallest/largest singular value of J[:, free_v] below singular_rcond).
+    """
+    label = f"sample {sample}" if sample is not None else "the given readings"
+    c, jac = residual_jacobian(q)
+    cost = float(c @ c)
+    v = np.zeros(model.nv)
+    for it in range(max_iter + 1):
+        a = jac[:, free_v]
+        err = float(np.max(np.abs(c))) if c.size else 0.0
+        if err < tol:
+            s = np.linalg.svd(a, compute_uv=False)
+            if s.size and s[min(a.shape) - 1] < singular_rcond * max(s[0], 1e-300):
+                raise AssemblyError(
+                    f"{label}: {what} reached a singular configuration (condition number "
+                    f"{s[0] / max(s[min(a.shape) - 1], 1e-300):.3g}); the passive joints are not "
+                    "determined by these readings")
+            log.debug("%s converged in %d iterations (|c| = %.2e)", what, it, err)
+            return q
+        if it == max_iter:
+            break
+        # Levenberg-Marquardt step, damping mu = |c|^2 (vanishes at the solution: quadratic
+        # convergence when regular, bounded steps near singularities); Cholesky via LAPACK
+        normal = a.T @ a
+        normal.flat[::normal.shape[0] + 1] += cost
+        step, info = _cholesky_solve(normal, -(a.T @ c))
+        if info != 0:
+            step = -np.linalg.lstsq(a, c, rcond=None)[0]
+        alpha, accepted = 1.0, False
+        for _ in range(30):
+            v[:] = 0.0
+            v[free_v] = alpha * step
+            q_try = pin.integrate(model, q, v)
+            c_try, jac_try = residual_jacobian(q_try)
+            cost_try = float(c_try @ c_try)
+            if cost_try < (1.0 - 1e-4 * alpha) * cost:
+                accepted = True
+                break
+            alpha *= 0.5
+        if not accepted:
+            raise AssemblyError(
+                f"{label}: {what} is stuck at a closure error of {err:.3g} after {it} iterations; "
+                "the readings cannot be assembled (out of reach) or the configuration is singular")
+        q, c, jac, cost = q_try, c_try, jac_try, cost_try
+    raise AssemblyError(f"{label}: {what} did not converge in {max_iter} iterations "
+                        f"(closure error {err:.3g}); the readings are out of reach or singular")
+
+
+def _cholesky_solve(matrix, rhs):
+    """x, info for a symmetric positive definite system (info != 0: not positive definite)."""
+    _, x, info = dposv(matrix, rhs)
+    return x, info
+
+
+def _loops_of(robot):
+    if robot.loops is None:
+        raise InputError(f"robot '{robot.name}' has no loop closures")
+    return robot.loops
+
+
+def assemble(robot, model: pin.Model, actuated_values, q_guess=None, sample=None, tol: float = 1e-12,
+             max_iter: int = 50, data: pin.Data | None = None, singular_rcond: float = 1e-5) -> np.ndarray:
+    """Closed-chain forward kinematics: solve the passive joints for given actuated readings.
+
+    robot           Robot whose `loops` describe the closures
+    model           the model to use (robot.model or a calibrated copy with edited placements)
+    actuated_values (n_act,) readings in the order of robot.loops.actuated (m or rad)
+    q_guess         (nq,) warm start (e.g. the previous sample's solution); neutral by default
+    sample          label used in the error message
+    Returns q (nq,) with the actuated joints at the readings and every closure satisfied
+    (max |c| < tol). Raises AssemblyError when there is no assembly or it is singular.
+    """
+    loops = _loops_of(robot)
+    data = model.createData() if data is None else data
+    q0 = pin.neutral(model) if q_guess is None else np.asarray(q_guess, dtype=float)
+    q0 = loops.set_actuated(q0, actuated_values)
+    return _solve(model, q0, lambda q: loops.constraint_jacobian(model, data, q), loops.passive_v,
+                  tol, max_iter, sample, "closed-chain assembly", singular_rcond)
+
+
+def inverse_kinematics(robot, model: pin.Model, frame: str, target: pin.SE3, q_guess=None, sample=None,
+                       tol: float = 1e-12, max_iter: int = 100, data: pin.Data | None = None,
+                       singular_rcond: float = 1e-6) -> np.ndarray:
+    """Generic inverse kinematics: all joints move so that `frame` reaches `target` (world SE3)
+    while every closure holds. Returns q (nq,); read the actuators with
+    robot.loops.actuated_values(q). Works on serial robots too (no closures)."""
+    loops = robot.loops
+    data = model.createData() if data is None else data
+    fid = robot.frame_id(frame)
+    target_inv = target.inverse()
+    n_rows = loops.n_rows if loops is not None else 0
+
+    def residual_jacobian(q):
+        if loops is not None:
+            c, jc = loops.constraint_jacobian(model, data, q)
+        else:
+            pin.computeJointJacobians(model, data, q)
+            pin.updateFramePlacements(model, data)
+            c, jc = np.zeros(0), np.zeros((0, model.nv))
+        err = target_inv * data.oMf[fid]
+        jf = pin.Jlog6(err) @ pin.getFrameJacobian(model, data, fid, pin.ReferenceFrame.LOCAL).reshape(6, -1)
+        return np.concatenate([c, pin.log6(err).vector]), np.vstack([jc, jf])
+
+    q0 = pin.neutral(model) if q_guess is None else np.asarray(q_guess, dtype=float)
+    log.debug("generic IK on %d closure rows + 6 pose rows, %d unknowns", n_rows, model.nv)
+    return _solve(model, q0, residual_jacobian, np.arange(model.nv), tol, max_iter, sample,
+                  "inverse kinematics", singular_rcond)
+
+
+# ---- reading URDF ---------------------------------------------------------------------------
+def _floats(element, attr: str, n: int, default: str, source: str) -> np.ndarray:
+    text = element.get(attr, default)
+    try:
+        values = np.array([float(x) for x in text.split()])
+    except ValueError:
+        values = np.zeros(0)
+    if values.size != n or not np.all(np.isfinite(values)):
+        raise InputError(f"<{element.tag}> attribute '{attr}' must hold {n} numbers, got '{text}'",
+                         source=source, row=element.sourceline, field=attr)
+    return values
+
+
+def _placement(element, source: str) -> pin.SE3:
+    """SE3 from xyz/rpy attributes (URDF convention) of `element`, identity when absent."""
+    if element is None:
+        return pin.SE3.Identity()
+    xyz = _floats(element, "xyz", 3, "0 0 0", source)
+    rpy = _floats(element, "rpy", 3, "0 0 0", source)
+    return pin.SE3(pin.rpy.rpyToMatrix(*rpy), xyz)
+
+
+def _child(element, tag: str, source: str):
+    child = element.find(tag)
+    if child is None or not child.get("link"):
+        raise InputError(f"closure '{element.get('name')}' needs a <{tag} link=\"...\"> element",
+                         source=source, row=element.sourceline, field=tag)
+    return child
+
+
+def _axis(element, source: str) -> tuple:
+    node = element.find("axis")
+    a = np.array([1.0, 0.0, 0.0]) if node is None else _floats(node, "xyz", 3, "1 0 0", source)
+    n = np.linalg.norm(a)
+    if n == 0:
+        raise InputError("closure axis must not be zero", source=source, row=element.sourceline, field="axis")
+    return tuple(a / n)
+
+
+def _read_closure(robot, element, source):
+    """(name, kind, link1, placement1, link2, placement2, length, axis) of one closure element."""
+    name = element.get("name")
+    if not name:
+        raise InputError(f"<{element.tag}> without a name", source=source, row=element.sourceline, field="name")
+    type_ = (element.get("type") or "").lower()
+    drake = element.tag == "loop_joint"
+    kinds = _DRAKE_KINDS if drake else _URDFPLUS_KINDS
+    if type_ not in kinds:
+        raise InputError(f"closure '{name}' has type '{type_}'; robocal reads "
+                         f"{', '.join(sorted(kinds))}", source=source, row=element.sourceline, field="type")
+    kind = kinds[type_]
+    if drake:
+        e1, e2 = _child(element, "link1", source), _child(element, "link2", source)
+        m1, m2 = _placement(e1, source), _placement(e2, source)
+    else:
+        e1, e2 = _child(element, "predecessor", source), _child(element, "successor", source)
+        m1, m2 = _placement(e1.find("origin"), source), _placement(e2.find("origin"), source)
+    length = 0.0
+    if kind == "distance":
+        if element.get("length") is None:
+            raise InputError(f"distance closure '{name}' needs a length attribute (m)", source=source,
+                             row=element.sourceline, field="length")
+        length = float(_floats(element, "length", 1, "", source)[0])
+    axis = _axis(element, source) if kind == "revolute" else None
+    for e in (e1, e2):
+        if not robot.model.existBodyName(e.get("link")):
+            raise InputError(f"closure '{name}' names an unknown link '{e.get('link')}'", source=source,
+                             row=e.sourceline, field="link")
+    return name, kind, e1.get("link"), m1, e2.get("link"), m2, length, axis
+
+
+def _joint_of_link(robot, link: str, element, source) -> str:
+    fid = robot.model.getFrameId(link, pin.FrameType.BODY)
+    if fid >= len(robot.model.frames):
+        raise InputError(f"coupling '{element.get('name')}' names an unknown link '{link}'",
+                         source=source, row=element.sourceline, field="link")
+    return robot.model.names[robot.model.frames[fid].parentJoint]
+
+
+def _read_coupling(robot, element, source) -> Coupling:
+    name = element.get("name", "")
+    pred = _child(element, "predecessor", source).get("link")
+    succ = _child(element, "successor", source).get("link")
+    ratio_node = element.find("ratio")
+    ratio = 1.0 if ratio_node is None else float(_floats(ratio_node, "value", 1, "1", source)[0])
+    return Coupling(name, _joint_of_link(robot, pred, element, source),
+                    _joint_of_link(robot, succ, element, source), ratio)
+
+
+def _read_actuated(robot, tree, source, required: bool) -> list[str]:
+    nodes = tree.findall("actuated")
+    if len(nodes) > 1:
+        raise InputError("more than one <actuated> element", source=source, row=nodes[1].sourceline)
+    if nodes:
+        names = nodes[0].get("joints", "").split()
+        row = nodes[0].sourceline
+    else:  # fall back on standard <transmission> elements
+        names = [j.get("name") for t in tree.findall("transmission") for j in t.findall("joint")]
+        row = None
+    if not names and required:
+        raise InputError("a closed-chain URDF needs <actuated joints=\"j1 j2 ...\"/> (or <transmission> "
+                         "elements) naming the joints read by encoders", source=source, field="actuated")
+    for n in names:
+        if not robot.model.existJointName(n):
+            raise InputError(f"actuated joint '{n}' is not a joint of the model", source=source, row=row,
+                             field="actuated")
+        j = robot.model.joints[robot.model.getJointId(n)]
+        if j.nv != 1:
+            raise InputError(f"actuated joint '{n}' must have one degree of freedom", source=source, row=row,
+                             field="actuated")
+    if len(set(names)) != len(names):
+        raise InputError("an actuated joint is listed twice", source=source, row=row, field="actuated")
+    return names
 
 
 def read_loops(robot, tree):
-    """Return the robot's loop closures, or None for a serial (tree) robot."""
-    elements = tree.findall("loop_joint") + tree.findall("constraint")
-    if not elements:
+    """Read the closures of a URDF (lxml root element) into a LoopSet; None for a tree robot.
+
+    Adds the anchor frames `<closure>.link1` / `<closure>.link2` to robot.model.
+    """
+    source = str(robot.urdf_path) if robot.urdf_path else "URDF"
+    closures_xml = tree.findall("loop_joint") + tree.findall("loop") + [
+        e for e in tree.findall("constraint") if (e.get("type") or "").lower() != "coupling"]
+    couplings_xml = tree.findall("coupling") + [
+        e for e in tree.findall("constraint") if (e.get("type") or "").lower() == "coupling"]
+    if not closures_xml and not couplings_xml:
         return None
-    raise InputError("this URDF has loop closures, which robocal cannot read yet",
-                     source=str(robot.urdf_path), row=elements[0].sourceline)
+    closures, seen = [], set()
+    for element in closures_xml:
+        name, kind, link1, m1, link2, m2, length, axis = _read_closure(robot, element, source)
+        if name in seen:
+            raise InputError(f"closure '{name}' is defined twice", source=source, row=element.sourceline,
+                             field="name")
+        seen.add(name)
+        f1, f2 = f"{name}.link1", f"{name}.link2"
+        robot.add_frame(f1, parent=link1, placement=m1)
+        robot.add_frame(f2, parent=link2, placement=m2)
+        closures.append(Closure(name, kind, f1, f2, ROWS[kind], length, axis))
+    couplings = [_read_coupling(robot, e, source) for e in couplings_xml]
+    loops = LoopSet(robot.model, closures, _read_actuated(robot, tree, source, bool(closures)), couplings)
+    if closures and loops.n_rows < loops.passive_v.size:
+        raise InputError(f"the closures give {loops.n_rows} constraint rows for {loops.passive_v.size} "
+                         "passive degrees of freedom: the actuated readings do not determine the "
+                         "mechanism", source=source, field="actuated")
+    log.info("read %d closures (%d rows), %d actuated joints, %d couplings", len(closures), loops.n_rows,
+             len(loops.actuated), len(couplings))
+    return loops
