@@ -20,6 +20,7 @@ from .result import BlockStats, CalibrationResult, block_statistics
 from .solve import Iteration, levenberg_marquardt
 
 log = logging.getLogger(__name__)
+MAX_SELECTION_PASSES = 3
 
 
 @dataclass
@@ -49,30 +50,38 @@ def calibrate(problem: Problem, options: CalibrationOptions | None = None,
             f"fix parameters")
     if not np.all(np.isfinite(ev0.r)):
         raise IdentifiabilityError(f"{source}: the residuals are not finite at the initial parameters")
-    selection = select_base_parameters(ev0.J, requested, opt.rank_rtol)
-    for name in requested:
-        p = params[name]
-        p.identifiable, p.confounded_with, p.stderr = True, [], None
-    for j in selection.dependent:
-        p = params[requested[j]]
-        p.vary, p.identifiable = False, False
-        p.confounded_with = selection.confounded_with(j)
-    for p in params:
-        if p.name not in requested:
-            p.identifiable = None
     before = block_statistics(problem, ev0)
-    log.info("calibrating %d of %d requested parameters from %d rows", selection.rank, len(requested), m)
 
     def fun(x):
         params.set_free_values(x)
         ev = problem.evaluate()
         return ev.r, ev.J, ev.group
 
-    lo, hi = params.free_bounds()
-    sol = levenberg_marquardt(fun, params.free_values(), lo, hi, loss=opt.loss, f_scale=opt.f_scale,
-                              max_iterations=opt.max_iterations, ftol=opt.ftol, xtol=opt.xtol, gtol=opt.gtol,
-                              callback=progress)
-    params.set_free_values(sol.x)
+    # The selection is made at the start point. A degenerate start (an unknown marker guessed on a joint
+    # axis) can hide a parameter completely; such parameters, and only those, are examined again at the
+    # solution, and the fit repeated with the ones the data now determine. Structural dependencies
+    # decided at the start stay decided, so the same data always give the same set.
+    selection = _apply_selection(params, requested, ev0.J, opt.rank_rtol)
+    for _attempt in range(MAX_SELECTION_PASSES):
+        log.info("calibrating %d of %d requested parameters from %d rows", selection.rank, len(requested), m)
+        lo, hi = params.free_bounds()
+        sol = levenberg_marquardt(fun, params.free_values(), lo, hi, loss=opt.loss, f_scale=opt.f_scale,
+                                  max_iterations=opt.max_iterations, ftol=opt.ftol, xtol=opt.xtol, gtol=opt.gtol,
+                                  callback=progress)
+        params.set_free_values(sol.x)
+        hidden = selection.no_effect
+        if not hidden:
+            break
+        for name in requested:
+            params[name].vary = True
+        allowed = set(selection.independent) | set(hidden)
+        again = select_base_parameters(problem.evaluate().J, requested, opt.rank_rtol, allowed)
+        if again.independent == selection.independent:   # same set; explain it as seen at the solution
+            selection = _apply_selection(params, requested, None, opt.rank_rtol, again)
+            break
+        log.info("%d parameters without effect at the start are determined at the solution: solving again",
+                 again.rank - selection.rank)
+        selection = _apply_selection(params, requested, None, opt.rank_rtol, again)
     ev = problem.evaluate()
     after = block_statistics(problem, ev)
     n = len(sol.x)
@@ -89,6 +98,19 @@ def calibrate(problem: Problem, options: CalibrationOptions | None = None,
         params=params, requested=requested, selection=selection, covariance=cov, before=before, after=after,
         solve=sol, dof=dof, sigma2=sigma2, condition=final_sel.condition, ill_conditioned=ill,
         condition_limit=opt.condition_limit, n_rows=m)
+
+
+def _apply_selection(params, requested, J, rtol, selection=None):
+    """Fix the parameters the data cannot determine (recording why); free the rest."""
+    selection = selection or select_base_parameters(J, requested, rtol)
+    for name in requested:
+        p = params[name]
+        p.vary, p.identifiable, p.confounded_with, p.stderr = True, True, [], None
+    for j in selection.dependent:
+        p = params[requested[j]]
+        p.vary, p.identifiable = False, False
+        p.confounded_with = selection.confounded_with(j)
+    return selection
 
 
 __all__ = ["calibrate", "CalibrationOptions", "CalibrationResult", "BlockStats"]

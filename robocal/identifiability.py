@@ -4,7 +4,8 @@ Base-parameter selection walks the parameters in their declared order and keeps 
 unit-scaled Jacobian column stands out of the span of the columns already kept by more than `rtol`
 (its remaining norm: 1 = orthogonal to everything kept, 0 = a combination of it). The result depends
 only on the order and on the column geometry, never on floating-point ties, so the same data give
-the same set on every machine; and it is predictable: robocal's presets put the measurement frame
+the same set on every machine (a final singular-value test drops, while the kept block's condition
+exceeds 1/rtol, the latest parameter taking part in its weakest direction); and it is predictable: robocal's presets put the measurement frame
 first, then the joints from root to tip, then frames on the robot, so a later parameter is the one
 dropped when two cannot be told apart (a revolute joint's offset is kept, its placement's rotation
 about the same axis dropped). The condition number of the kept block is reported alongside.
@@ -17,6 +18,7 @@ import numpy as np
 import scipy.linalg
 
 NEGLIGIBLE = 1e-12
+PARTICIPATES = 0.1  # share of the weakest singular vector that makes a parameter part of a dependency
 
 
 @dataclass
@@ -37,6 +39,11 @@ class BaseSelection:
     condition: float
     singular_values: np.ndarray
     rtol: float
+
+    @property
+    def no_effect(self) -> list[int]:
+        """Dependent columns that have no effect at all on the measurements."""
+        return [j for k, j in enumerate(self.dependent) if not np.any(self.regrouping[:, k])]
 
     @property
     def rank(self) -> int:
@@ -65,10 +72,12 @@ class BaseSelection:
         return lines
 
 
-def select_base_parameters(J: np.ndarray, names: list[str] | None = None, rtol: float = 1e-8) -> BaseSelection:
+def select_base_parameters(J: np.ndarray, names: list[str] | None = None, rtol: float = 1e-8,
+                           allowed: set[int] | None = None) -> BaseSelection:
     """Choose a maximal set of columns of J that the data determine (see module doc).
 
-    J: (m, n) Jacobian of the (weighted) residuals; names: n parameter names.
+    J: (m, n) Jacobian of the (weighted) residuals; names: n parameter names; allowed: column indices
+    that may be kept (default all; the others are reported as dependent).
     """
     J = np.asarray(J, dtype=float)
     m, n = J.shape
@@ -85,7 +94,7 @@ def select_base_parameters(J: np.ndarray, names: list[str] | None = None, rtol: 
     chosen: list[int] = []
     basis: list[np.ndarray] = []
     for j in range(n):
-        if not live[j]:
+        if not live[j] or (allowed is not None and j not in allowed):
             continue
         qv = W[:, j].copy()
         for _ in range(2):  # Gram-Schmidt twice: orthogonal to working precision
@@ -95,6 +104,15 @@ def select_base_parameters(J: np.ndarray, names: list[str] | None = None, rtol: 
         if remaining_norm > rtol:
             chosen.append(j)
             basis.append(qv / remaining_norm)
+    # Remaining norms are not rank-revealing when a dependency is spread thinly over several columns, so
+    # the kept block must also pass a singular-value test: while its condition exceeds 1/rtol, drop the
+    # latest parameter that takes part in the weakest direction.
+    while chosen:
+        _, sv, Vt = np.linalg.svd(W[:, chosen], full_matrices=False)
+        if sv[-1] > rtol * sv[0]:
+            break
+        v = np.abs(Vt[-1])
+        chosen.pop(max(k for k in range(len(chosen)) if v[k] > PARTICIPATES * v.max()))
     independent = sorted(chosen)
     dependent = [j for j in range(n) if j not in chosen]
     if independent and dependent:
