@@ -236,7 +236,7 @@ def _joint_values(robot, tab: Table, joint_cols, rows, jn: Cfg) -> np.ndarray:
 def _residual(cls, s: Cfg, tab: Table, rows, sample_idx, length_unit, angle_unit):
     sig = inspect.signature(cls.__init__)
     accepted = [p for p in sig.parameters if p not in ("self", "samples", "measurements", "columns")]
-    reserved = ("type", "csv", "where", "columns")
+    reserved = ("type", "csv", "where", "columns", "samples")   # samples: used by `robocal simulate` only
     s.check_keys(tuple(accepted) + reserved)
     kwargs = {k: v for k, v in s.value.items() if k not in reserved}
     kwargs.setdefault("name", f"{s.value['type']}{s.path[s.path.index('[') + 1:-1]}")

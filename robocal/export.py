@@ -50,8 +50,9 @@ def calibrated_urdf(robot, params: ParameterSet) -> bytes:
     if not robot.urdf_text:
         raise InputError("this robot was not loaded from a URDF; nothing to export")
     root = etree.fromstring(robot.urdf_text.encode("utf-8"))
-    joints = {j.get("name"): j for j in root.iter("joint")}
-    by_child = {j.find("child").get("link"): j for j in root.iter("joint") if j.find("child") is not None}
+    # direct children only: <transmission> elements hold <joint> references of their own
+    joints = {j.get("name"): j for j in root.findall("joint")}
+    by_child = {j.find("child").get("link"): j for j in joints.values() if j.find("child") is not None}
     offsets = {p.target: p.value for p in params if p.kind == "joint_offset"}
     targets = {p.target for p in params if p.kind == "joint_placement"} | set(offsets)
     for name in targets:
