@@ -57,27 +57,35 @@ class ModelState:
                 self.offsets[k] = p.value
                 if p.name in col:
                     self.P_offset[iv, col[p.name]] = 1.0
-        for kind, target in groups:
+        induced = []   # joints that hang below a calibrated frame: (joint id, moved frame, its block)
+        # frames first: a joint below a calibrated frame gets that change before its own placement error
+        for kind, target in sorted(groups, key=lambda g: g[0] != "frame_placement"):
             delta = params.placement_vector(kind, target)
             Jr = pin.Jexp6(pin.Motion(delta))
-            cols = [(c, col.get(f"{target}.{comp}")) for c, comp in enumerate(COMPONENTS)]
             block = np.zeros((6, self.n_free))
-            for c, j in cols:
+            for c, comp in enumerate(COMPONENTS):
+                j = col.get(f"{target}.{comp}")
                 if j is not None:
                     block[:, j] = Jr[:, c]
             if kind == "joint_placement":
                 jid = robot.joint_id(target)
-                self.model.jointPlacements[jid] = nominal.jointPlacements[jid] * _exp6(delta)
-                self.P_joint[6 * (jid - 1):6 * jid] = block
+                self.model.jointPlacements[jid] = self.model.jointPlacements[jid] * _exp6(delta)
+                self.P_joint[6 * (jid - 1):6 * jid] += block
             elif kind == "frame_placement":
                 fid = robot.frame_id(target)
                 moved = nominal.frames[fid].placement * _exp6(delta)
                 for gid, rel in robot.frames_moved_with(fid):
                     self.model.frames[gid].placement = moved * rel
                     self.P_frame[gid] = self.P_frame.get(gid, 0.0) + rel.inverse().toActionMatrix() @ block
+                for jid, rel in robot.joints_moved_with(fid):
+                    self.model.jointPlacements[jid] = moved * rel
+                    induced.append((jid, moved, block))
             else:
                 self.base = robot_base * _exp6(delta)
                 self.P_base = block
+        for jid, moved, block in induced:
+            final = self.model.jointPlacements[jid]
+            self.P_joint[6 * (jid - 1):6 * jid] += (final.inverse() * moved).toActionMatrix() @ block
         self._owner: SampleState | None = None
 
     def sample(self, values: np.ndarray, q_guess: np.ndarray | None = None, label=None) -> "SampleState":

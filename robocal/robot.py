@@ -137,6 +137,22 @@ class Robot:
                 out.append((g, base.inverse() * f.placement))
         return out
 
+    def joints_moved_with(self, frame) -> list[tuple[int, pin.SE3]]:
+        """Movable joints whose origin Pinocchio measures through `frame` (a fixed-joint link), and the
+        nominal placement of each relative to it; calibrating the frame moves them too."""
+        fid = frame if isinstance(frame, int) else self.frame_id(frame)
+        frames, m = self.model.frames, self.model
+        out = []
+        for k in range(1, m.njoints):
+            if m.parents[k] != frames[fid].parentJoint or not m.existFrame(m.names[k], pin.FrameType.JOINT):
+                continue
+            g = frames[m.getFrameId(m.names[k], pin.FrameType.JOINT)].parentFrame  # the frame it hangs on
+            while g != 0 and g != fid and frames[g].parentJoint == frames[fid].parentJoint:
+                g = frames[g].parentFrame
+            if g == fid:
+                out.append((k, frames[fid].placement.inverse() * m.jointPlacements[k]))
+        return out
+
     # ---- configurations ----------------------------------------------------------------
     def neutral(self) -> np.ndarray:
         return pin.neutral(self.model)

@@ -70,3 +70,20 @@ def test_residual_jacobian_matches_finite_differences(kind):
     problem = _problem(FACTORIES[kind], rng)
     # central differences with h=1e-6: truncation ~h^2 * third derivative, rounding ~eps/h
     assert _fd_check(problem) < 1e-7
+
+
+def test_frame_parameter_moves_joints_hanging_below_it():
+    """TIAGo: calibrating wrist_ft_tool_link (a fixed-joint link) moves the gripper's finger joints."""
+    from pathlib import Path
+    from robocal import load_urdf
+    rng = np.random.default_rng(3)
+    robot = load_urdf(Path(__file__).parents[1] / "examples/tiago_mocap/data/tiago_48_schunk.urdf")
+    joints = robot.supporting_joints("gripper_left_fingertip_link")
+    params = robot_parameters(robot, joints, "full", frames={"wrist_ft_tool_link": True})
+    for p in params:
+        p.value = rng.normal(0, 0.01)
+    values = rng.uniform(-1, 1, (3, len(joints)))
+    values[:, 0] = 0.2   # torso lift (m)
+    res = PointResidual("tip", "gripper_left_fingertip_link", np.arange(3), rng.normal(size=(3, 3)))
+    problem = Problem(robot, params, joints, values, [res])
+    assert _fd_check(problem) < 1e-7
