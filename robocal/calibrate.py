@@ -15,7 +15,7 @@ import numpy as np
 
 from .errors import IdentifiabilityError
 from .identifiability import covariance, select_base_parameters
-from .problem import Problem
+from .problem import Evaluation, Problem
 from .result import BlockStats, CalibrationResult, block_statistics
 from .solve import Iteration, levenberg_marquardt
 
@@ -52,9 +52,15 @@ def calibrate(problem: Problem, options: CalibrationOptions | None = None,
         raise IdentifiabilityError(f"{source}: the residuals are not finite at the initial parameters")
     before = block_statistics(problem, ev0)
 
+    last = {}
+
     def fun(x):
+        if "x" in last and last["x"].shape == np.shape(x) and np.array_equal(last["x"], x):
+            ev = last["ev"]
+            return ev.r, ev.J, ev.group
         params.set_free_values(x)
         ev = problem.evaluate()
+        last["x"], last["ev"] = np.array(x), ev
         return ev.r, ev.J, ev.group
 
     # The selection is made at the start point. A degenerate start (an unknown marker guessed on a joint
@@ -62,6 +68,8 @@ def calibrate(problem: Problem, options: CalibrationOptions | None = None,
     # solution, and the fit repeated with the ones the data now determine. Structural dependencies
     # decided at the start stay decided, so the same data always give the same set.
     selection = _apply_selection(params, requested, ev0.J, opt.rank_rtol)
+    kept = [requested.index(n) for n in params.free_names]          # the solver starts where ev0 was taken
+    last["x"], last["ev"] = params.free_values(), Evaluation(ev0.r, ev0.J[:, kept], ev0.raw, ev0.group)
     for _attempt in range(MAX_SELECTION_PASSES):
         log.info("calibrating %d of %d requested parameters from %d rows", selection.rank, len(requested), m)
         lo, hi = params.free_bounds()
@@ -70,7 +78,7 @@ def calibrate(problem: Problem, options: CalibrationOptions | None = None,
                                   callback=progress)
         params.set_free_values(sol.x)
         hidden = selection.no_effect
-        if not hidden:
+        if not hidden or _attempt == MAX_SELECTION_PASSES - 1:
             break
         for name in requested:
             params[name].vary = True
@@ -82,7 +90,9 @@ def calibrate(problem: Problem, options: CalibrationOptions | None = None,
         log.info("%d parameters without effect at the start are determined at the solution: solving again",
                  again.rank - selection.rank)
         selection = _apply_selection(params, requested, None, opt.rank_rtol, again)
-    ev = problem.evaluate()
+    x = params.free_values()
+    reuse = "x" in last and last["x"].shape == x.shape and np.array_equal(last["x"], x)
+    ev = last["ev"] if reuse else problem.evaluate()   # the solver's last evaluation is at the solution
     after = block_statistics(problem, ev)
     n = len(sol.x)
     dof = m - n

@@ -12,6 +12,7 @@ import numpy as np
 import pinocchio as pin
 
 from .parameters import COMPONENTS, ParameterSet
+from .robot import ConfigurationMap
 
 LOCAL = pin.ReferenceFrame.LOCAL
 
@@ -87,13 +88,15 @@ class ModelState:
             final = self.model.jointPlacements[jid]
             self.P_joint[6 * (jid - 1):6 * jid] += (final.inverse() * moved).toActionMatrix() @ block
         self._owner: SampleState | None = None
+        self.has_joint_params, self.has_base_params = bool(self.P_joint.any()), bool(self.P_base.any())
+        self._qmap = ConfigurationMap(robot, self.joint_names)
 
     def sample(self, values: np.ndarray, q_guess: np.ndarray | None = None, label=None) -> "SampleState":
         """State at one sample's joint readings (in `joint_names` order, SI units)."""
         return SampleState(self, np.asarray(values, dtype=float), label)
 
     def configuration(self, values: np.ndarray) -> np.ndarray:
-        return self.robot.configuration(self.joint_names, values + self.offsets)
+        return self._qmap(values + self.offsets)
 
 
 class SampleState:
@@ -138,12 +141,12 @@ class SampleState:
             fid = frame if isinstance(frame, int) else ms.robot.frame_id(frame)
             self._activate()
             J = hit[2] @ ms.P_offset
-            if ms.P_joint.any():
+            if ms.has_joint_params:
                 reg = pin.computeFrameKinematicRegressor(ms.model, ms.data, fid, LOCAL)
                 J += reg @ ms.P_joint
             if fid in ms.P_frame:
                 J += ms.P_frame[fid]
-            if ms.P_base.any():
+            if ms.has_base_params:
                 J += hit[1].inverse().toActionMatrix() @ ms.P_base
             hit[3] = J
         return hit[3]

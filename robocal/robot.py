@@ -78,11 +78,16 @@ class Robot:
         return [f.name for f in self.model.frames]
 
     def frame_id(self, name: str) -> int:
+        cache = self.__dict__.setdefault("_frame_ids", {})   # frames are only ever added (add_frame clears it)
+        fid = cache.get(name)
+        if fid is not None:
+            return fid
         if not self.model.existFrame(name):
             close = difflib.get_close_matches(name, self.frame_names, n=5, cutoff=0.5)
             hint = f" Close matches: {', '.join(close)}." if close else ""
             raise FrameNotFound(f"robot '{self.name}' has no frame '{name}'.{hint}", field=name)
-        return self.model.getFrameId(name)
+        cache[name] = fid = self.model.getFrameId(name)
+        return fid
 
     def joint_id(self, name: str) -> int:
         if not self.model.existJointName(name):
@@ -110,6 +115,7 @@ class Robot:
         placement = pin.SE3.Identity() if placement is None else placement
         frame = pin.Frame(name, pf.parentJoint, pid, pf.placement * placement, pin.FrameType.OP_FRAME)
         self.extra_frames[name] = (parent, placement.copy())
+        self.__dict__.pop("_frame_ids", None)
         return self.model.addFrame(frame, False)
 
     def frames_moved_with(self, frame) -> list[tuple[int, pin.SE3]]:
@@ -163,17 +169,7 @@ class Robot:
 
         Continuous joints (Pinocchio stores cos, sin) are handled.
         """
-        q = self.neutral() if base is None else base.copy()
-        for name, value in zip(joint_names, values):
-            j = self.model.joints[self.joint_id(name)]
-            if j.nq == 1:
-                q[j.idx_q] = value
-            elif j.nq == 2 and j.nv == 1:
-                q[j.idx_q], q[j.idx_q + 1] = np.cos(value), np.sin(value)
-            else:
-                raise InputError(f"joint '{name}' has {j.nv} degrees of freedom; robocal reads "
-                                 "one value per joint", field=name)
-        return q
+        return ConfigurationMap(self, joint_names, base)(values)
 
     def limits(self, joint_names: list[str]) -> tuple[np.ndarray, np.ndarray]:
         """Lower and upper position limits of 1-dof joints (infinite ones clipped to +-pi)."""
@@ -187,6 +183,36 @@ class Robot:
             lo.append(max(a, -np.pi) if np.isfinite(a) else -np.pi)
             hi.append(min(b, np.pi) if np.isfinite(b) else np.pi)
         return np.array(lo), np.array(hi)
+
+
+class ConfigurationMap:
+    """Readings of named 1-dof joints -> full Pinocchio q, with the index work done once."""
+
+    def __init__(self, robot: Robot, joint_names: list[str], base: np.ndarray | None = None):
+        self.q0 = robot.neutral() if base is None else np.array(base, dtype=float)
+        plain, cont_k, cont_q = [], [], []
+        for k, name in enumerate(joint_names):
+            j = robot.model.joints[robot.joint_id(name)]
+            if j.nq == 1:
+                plain.append((k, j.idx_q))
+            elif j.nq == 2 and j.nv == 1:
+                cont_k.append(k)
+                cont_q.append(j.idx_q)
+            else:
+                raise InputError(f"joint '{name}' has {j.nv} degrees of freedom; robocal reads "
+                                 "one value per joint", field=name)
+        self.plain_k = np.array([k for k, _ in plain], dtype=int)
+        self.plain_q = np.array([i for _, i in plain], dtype=int)
+        self.cont_k, self.cont_q = np.array(cont_k, dtype=int), np.array(cont_q, dtype=int)
+
+    def __call__(self, values: np.ndarray) -> np.ndarray:
+        values = np.asarray(values, dtype=float)
+        q = self.q0.copy()
+        q[self.plain_q] = values[self.plain_k]
+        if len(self.cont_k):
+            q[self.cont_q] = np.cos(values[self.cont_k])
+            q[self.cont_q + 1] = np.sin(values[self.cont_k])
+        return q
 
 
 def _parse_urdf_text(path: Path) -> tuple[str, etree._ElementTree]:
