@@ -90,22 +90,46 @@ class ModelState:
         self._owner: SampleState | None = None
         self.has_joint_params, self.has_base_params = bool(self.P_joint.any()), bool(self.P_base.any())
         self._qmap = ConfigurationMap(robot, self.joint_names)
+        self.loops = robot.loops
+        self.warm_starts: dict = {}      # sample label -> last assembled q (shared across parameter updates)
+        if self.loops is not None:
+            missing = [j for j in self.loops.actuated if j not in self.joint_names]
+            if missing:
+                raise ValueError(f"the data must read the actuated joints; missing: {', '.join(missing)}")
+            self._act_order = [self.joint_names.index(j) for j in self.loops.actuated]
+            self._adata = self.model.createData()
 
     def sample(self, values: np.ndarray, q_guess: np.ndarray | None = None, label=None) -> "SampleState":
-        """State at one sample's joint readings (in `joint_names` order, SI units)."""
-        return SampleState(self, np.asarray(values, dtype=float), label)
+        """State at one sample's joint readings (in `joint_names` order, SI units).
 
-    def configuration(self, values: np.ndarray) -> np.ndarray:
-        return self._qmap(values + self.offsets)
+        On a closed-chain robot the passive joints are solved so that every loop closes (warm-started
+        from `q_guess`, else from this sample's last solution); AssemblyError names `label` if impossible.
+        """
+        return SampleState(self, np.asarray(values, dtype=float), label, q_guess)
+
+    def configuration(self, values: np.ndarray, q_guess: np.ndarray | None = None, label=None) -> np.ndarray:
+        q = self._qmap(values + self.offsets)
+        if self.loops is None:
+            return q
+        from .loops import assemble   # loops imports robot; keep the import graph one-way at load time
+        guess = q_guess if q_guess is not None else self.warm_starts.get(label)
+        if guess is not None:
+            guess = guess.copy()
+        q = assemble(self.robot, self.model, (values + self.offsets)[self._act_order], q_guess=guess,
+                     sample=label, data=self._adata)
+        if label is not None:
+            self.warm_starts[label] = q
+        return q
 
 
 class SampleState:
     """One sample: readings + forward kinematics, with cached frame quantities."""
 
-    def __init__(self, ms: ModelState, values: np.ndarray, label=None):
+    def __init__(self, ms: ModelState, values: np.ndarray, label=None, q_guess=None):
         self.ms, self.values, self.label = ms, values, label
-        self.q = ms.configuration(values)
+        self.q = ms.configuration(values, q_guess, label)
         self._cache: dict[int, tuple] = {}
+        self._implicit = None
 
     def _activate(self):
         ms = self.ms
@@ -130,13 +154,26 @@ class SampleState:
         return self._frame(frame)[0]
 
     def frame_joint_jacobian(self, frame) -> np.ndarray:
-        """(6, n_read) LOCAL twist of the frame per unit of each read joint."""
-        return self._frame(frame)[2][:, self.ms._read_v_index]
+        """(6, n_read) LOCAL twist of the frame per unit of each read joint (loops closed)."""
+        Jq = self._frame(frame)[2]
+        J = Jq[:, self.ms._read_v_index]
+        if self.ms.loops is not None:
+            J = J + Jq[:, self.ms.loops.passive_v] @ self._passive_sensitivity()[1]
+        return J
 
     def frame_parameter_jacobian(self, frame) -> np.ndarray:
-        """(6, n_free) LOCAL twist of the frame per unit of each free parameter."""
+        """(6, n_free) LOCAL twist of the frame per unit of each free parameter (loops closed)."""
         hit = self._frame(frame)
         if hit[3] is None:
+            J = self._tree_parameter_jacobian(frame, hit)
+            if self.ms.loops is not None:
+                J = J + hit[2][:, self.ms.loops.passive_v] @ self._passive_sensitivity()[0]
+            hit[3] = J
+        return hit[3]
+
+    def _tree_parameter_jacobian(self, frame, hit) -> np.ndarray:
+        """Parameter Jacobian with every joint held at its current value (the spanning tree's view)."""
+        if len(hit) == 4:
             ms = self.ms
             fid = frame if isinstance(frame, int) else ms.robot.frame_id(frame)
             self._activate()
@@ -148,5 +185,22 @@ class SampleState:
                 J += ms.P_frame[fid]
             if ms.has_base_params:
                 J += hit[1].inverse().toActionMatrix() @ ms.P_base
-            hit[3] = J
-        return hit[3]
+            hit.append(J)
+        return hit[4]
+
+    def _passive_sensitivity(self) -> tuple[np.ndarray, np.ndarray]:
+        """(dq_passive/dtheta, dq_passive/dq_read) from the implicit-function theorem on the closures:
+        c(q_p, q_a, theta) = 0  =>  dq_p = -C_p^+ (C_theta dtheta + C_a dq_a)."""
+        if self._implicit is None:
+            ms, L = self.ms, self.ms.loops
+            _, dc_dv = L.constraint_jacobian(ms.model, ms._adata, self.q)
+            hits1 = [self._frame(c.frame1) for c in L.closures]
+            hits2 = [self._frame(c.frame2) for c in L.closures]
+            _, D1, D2 = L.closure_error([h[1] for h in hits1], [h[1] for h in hits2])
+            C_theta = np.vstack([d1 @ self._tree_parameter_jacobian(c.frame1, h1)
+                                 + d2 @ self._tree_parameter_jacobian(c.frame2, h2)
+                                 for c, d1, d2, h1, h2 in zip(L.closures, D1, D2, hits1, hits2)])
+            rhs = np.hstack([C_theta, dc_dv[:, ms._read_v_index]])
+            sol = -np.linalg.lstsq(dc_dv[:, L.passive_v], rhs, rcond=None)[0]
+            self._implicit = (sol[:, :ms.n_free], sol[:, ms.n_free:])
+        return self._implicit

@@ -56,6 +56,7 @@ class Problem:
         # first, then the measurement set-up (plane, sphere centre, marker points), then the robot.
         params.reorder(lambda p: KIND_ORDER.get(p.kind, 2))
         self.blocks = self._layout()
+        self.warm_starts: dict = {}
 
     def _layout(self) -> list[Block]:
         blocks, start = [], 0
@@ -73,7 +74,9 @@ class Problem:
         return ModelState(self.robot, self.params, self.joint_names)
 
     def states(self, ms: ModelState | None = None) -> "LazyStates":
-        return LazyStates(ms or self.model_state(), self.values)
+        ms = ms or self.model_state()
+        ms.warm_starts = self.warm_starts   # closed chains: start each assembly from the last solution
+        return LazyStates(ms, self.values)
 
     def aux_values(self, res: Residual) -> np.ndarray:
         return np.array([self.params[p.name].value for p in res.aux_parameters()])
