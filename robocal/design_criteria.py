@@ -1,0 +1,160 @@
+"""Information criteria of an identification Jacobian, and their fast evaluation for pose exchanges.
+
+All criteria are to be MAXIMISED. They are functions of the information matrix M = J^T J of the
+column-scaled, unit-variance Jacobian J (m rows, L identifiable columns), with singular values
+sigma_1 >= ... >= sigma_L of J (sigma_i^2 = eigenvalues of M):
+
+  D   log det M                                 D-optimal (volume of the confidence ellipsoid)
+  E   sigma_L                                   E-optimal (worst-determined direction)
+  A   -trace(M^-1)                              A-optimal (sum of the parameter variances)
+  I   -trace(M^-1 W)                            I-optimal (average prediction variance, W given)
+  O1  (sigma_1 ... sigma_L)^(1/L) / sqrt(m)     Borm & Menq (1991)
+  O2  sigma_L / sigma_1                         Driels & Pathre (1990), inverse condition number
+  O3  sigma_L                                   Nahvi, Hollerbach & Hayward (1994); same ranking as E
+  O4  sigma_L^2 / sigma_1                       Nahvi & Hollerbach (1996), noise amplification index
+  O5  1 / (1/sigma_1 + ... + 1/sigma_L)         Sun & Hollerbach (2008), A-optimality-like
+
+D, A, I and O1 (a function of det M and m) are evaluated for many candidate changes at once with block
+(Woodbury) updates of M^-1. The other singular-value criteria need the eigenvalues of each changed matrix;
+`best_addition` avoids most of them with cheap upper bounds (Rayleigh quotients and Weyl's inequality
+for the PSD update M + B^T B) and computes eigenvalues only for candidates whose bound can still win.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+CRITERIA = ("D", "E", "A", "I", "O1", "O2", "O3", "O4", "O5")
+#: criteria that only depend on the eigenvalues of M (and on m for O1)
+SPECTRAL = ("E", "O1", "O2", "O3", "O4", "O5")
+
+
+def from_eigenvalues(criterion: str, lam: np.ndarray, m: np.ndarray | float) -> np.ndarray:
+    """Criterion value from eigenvalues of M (last axis, any order); m = number of rows (for O1).
+
+    A singular M gives -inf for D and A and 0 for the ratio criteria (nothing is determined).
+    """
+    lam = np.sort(np.maximum(np.asarray(lam, dtype=float), 0.0), axis=-1)
+    sig = np.sqrt(lam)
+    smin, smax = sig[..., 0], sig[..., -1]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        if criterion == "D":
+            return np.sum(np.log(lam), axis=-1)
+        if criterion == "A":
+            return -np.sum(1.0 / lam, axis=-1)
+        if criterion in ("E", "O3"):
+            return smin
+        if criterion == "O1":
+            return np.exp(np.mean(np.log(sig), axis=-1)) / np.sqrt(m)
+        if criterion == "O2":
+            return np.where(smax > 0, smin / smax, 0.0)
+        if criterion == "O4":
+            return np.where(smax > 0, smin ** 2 / smax, 0.0)
+        if criterion == "O5":
+            return np.where(smin > 0, 1.0 / np.sum(1.0 / sig, axis=-1), 0.0)
+    raise ValueError(f"unknown criterion '{criterion}' (known: {', '.join(CRITERIA)})")
+
+
+def evaluate(criterion: str, M: np.ndarray, m: int, W: np.ndarray | None = None) -> float:
+    """Criterion of one information matrix M (L x L) built from m rows."""
+    if criterion == "I":
+        try:
+            return float(-np.trace(np.linalg.solve(M, W)))
+        except np.linalg.LinAlgError:
+            return -np.inf
+    return float(from_eigenvalues(criterion, np.linalg.eigvalsh(M), m))
+
+
+def all_criteria(M: np.ndarray, m: int, W: np.ndarray | None = None) -> dict[str, float]:
+    """Every criterion of M (I only when W is given)."""
+    out = {c: evaluate(c, M, m) for c in CRITERIA if c != "I"}
+    if W is not None:
+        out["I"] = evaluate("I", M, m, W)
+    return out
+
+
+def scores_after_adding(criterion: str, M: np.ndarray, m: int, B: np.ndarray, rows: np.ndarray,
+                        W: np.ndarray | None = None) -> np.ndarray:
+    """Criterion of M + B_k^T B_k for every candidate block k.
+
+    M (L, L) must be positive definite (regularised by the caller); B (K, d, L) zero-padded blocks;
+    rows (K,) true row count of each block (for O1's m).
+    """
+    if criterion in ("D", "A", "I", "O1"):
+        L = np.linalg.cholesky(M)
+        Minv = np.linalg.inv(L).T @ np.linalg.inv(L)          # M^-1 from its Cholesky factor
+        P = B @ Minv                                           # (K, d, L)
+        S = np.eye(B.shape[1]) + np.einsum("kdi,kei->kde", P, B)   # I + B M^-1 B^T, (K, d, d)
+        logdet = 2.0 * np.sum(np.log(np.diag(L))) + np.linalg.slogdet(S)[1]
+        if criterion == "D":
+            return logdet
+        if criterion == "O1":     # (prod sigma)^(1/L) / sqrt(m) = exp(log det M / (2 L)) / sqrt(m)
+            return np.exp(logdet / (2 * M.shape[0])) / np.sqrt(m + rows)
+        # Woodbury: (M + B^T B)^-1 = M^-1 - P^T S^-1 P, so tr((.)^-1 W) = tr(M^-1 W) - tr(S^-1 P W P^T)
+        Wm = np.eye(M.shape[0]) if criterion == "A" else W
+        H = np.einsum("kdi,kei->kde", P @ Wm, P)
+        return -(np.trace(Minv @ Wm) - np.trace(np.linalg.solve(S, H), axis1=1, axis2=2))
+    lam = np.linalg.eigvalsh(M[None] + np.einsum("kdi,kdj->kij", B, B))
+    return from_eigenvalues(criterion, lam, m + rows)
+
+
+#: bounds are inflated by this relative amount so that rounding never prunes the true best candidate
+_BOUND_SLACK = 1e-9
+_CHUNK = 32
+
+
+def _upper_bounds(criterion, M, B):
+    """Upper bound of the criterion of M' = M + B_k^T B_k for every k (spectral criteria except O1).
+
+    In M's eigenbasis (M = V diag(lam) V^T, C = B V), for a rank-d PSD update:
+      lambda_min(M') <= lambda_min(diag(lam_r) + C_r^T C_r) over the r weakest directions (Rayleigh-Ritz),
+      lambda_max(M') >= lambda_max(diag(lam_r) + C_r^T C_r) over the r strongest directions,
+      lambda_i(M') <= min(lambda_{i+d}(M), lambda_i(M) + |B|_F^2)   (interlacing, Weyl).
+    """
+    lam, V = np.linalg.eigh(M)
+    lam = np.maximum(lam, 0.0)
+    L, d = len(lam), B.shape[1]
+    r = min(L, 6)
+    C = B @ V                                                       # (K, d, L)
+    weak = np.linalg.eigvalsh(np.diag(lam[:r]) + np.einsum("kdi,kdj->kij", C[:, :, :r], C[:, :, :r]))[:, 0]
+    strong = np.linalg.eigvalsh(np.diag(lam[-r:]) + np.einsum("kdi,kdj->kij", C[:, :, -r:], C[:, :, -r:]))[:, -1]
+    if criterion in ("E", "O3"):
+        ub = np.sqrt(weak)
+    elif criterion == "O2":
+        ub = np.sqrt(weak / strong)
+    elif criterion == "O4":
+        ub = weak / np.sqrt(strong)
+    elif criterion == "O5":
+        b2 = np.sum(B ** 2, axis=(1, 2))
+        shifted = np.concatenate([lam[d:], np.full(min(d, L), np.inf)])
+        top = np.minimum(shifted[None, :], lam[None, :] + b2[:, None])
+        top[:, 0] = np.minimum(top[:, 0], weak)
+        ub = 1.0 / np.sum(1.0 / np.sqrt(top), axis=1)
+    else:
+        raise ValueError(f"no bound for criterion '{criterion}'")
+    return ub * (1 + _BOUND_SLACK) + 1e-300
+
+
+def best_addition(criterion: str, M: np.ndarray, m: int, B: np.ndarray, rows: np.ndarray,
+                  W: np.ndarray | None = None) -> tuple[int, float]:
+    """(k, value) of the candidate block that maximises the criterion of M + B_k^T B_k.
+
+    Ties go to the lowest k, as with argmax over `scores_after_adding`, of which this is a faster
+    equivalent: candidates are evaluated in order of decreasing upper bound until no bound can beat
+    the best value found.
+    """
+    if criterion not in ("E", "O2", "O3", "O4", "O5"):
+        s = scores_after_adding(criterion, M, m, B, rows, W)
+        k = int(np.argmax(s))
+        return k, float(s[k])
+    ub = _upper_bounds(criterion, M, B)
+    order = np.argsort(-ub, kind="stable")
+    best_k, best = -1, -np.inf
+    for start in range(0, len(order), _CHUNK):
+        idx = order[start:start + _CHUNK]
+        if ub[idx[0]] < best:
+            break
+        s = scores_after_adding(criterion, M, m, B[idx], rows[idx], W)
+        for k, v in zip(idx, s):
+            if v > best or (v == best and k < best_k):
+                best_k, best = int(k), float(v)
+    return best_k, best
