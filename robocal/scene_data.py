@@ -1,0 +1,202 @@
+"""What a visual check needs that result.json does not hold: the scene file of a calibration output.
+
+`scene_bytes(problem, result, params_before)` evaluates the model twice (the parameters before and after
+the fit) on every sample and records, in SI units:
+  - the world pose of every link (and of every measured frame) per sample, before and after;
+  - per measurement block and term: the measured point(s), the model's prediction(s) and the raw
+    residual vector, before and after, plus the measurement artefact (plane, sphere, cylinder, ball
+    bar, laser line) at its initial and estimated values;
+  - the identification Jacobian's singular values and the rank the base-parameter selection kept.
+
+Poses come only from `SampleState.pose(frame)`, so a closed-chain machine (whose SampleState assembles its
+loops) is recorded exactly like a serial arm. Nothing here loads meshes: the viewer does that.
+"""
+from __future__ import annotations
+
+import json
+import logging
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+from .errors import InputError
+from .kinematics import ModelState
+from .problem import LazyStates
+from .residuals.base import tilted_direction
+
+log = logging.getLogger(__name__)
+
+FORMAT = "robocal-scene"
+VERSION = 1
+STATES = ("before", "after")
+
+
+def _pose7(M: pin.SE3) -> list[float]:
+    return [*M.translation.tolist(), *pin.Quaternion(M.rotation).coeffs().tolist()]
+
+
+def link_tree(robot) -> list[dict]:
+    """Links (BODY frames) with their parent link, root first: the skeleton drawn without meshes."""
+    frames = robot.model.frames
+    out = []
+    for fid, f in enumerate(frames):
+        if f.type != pin.FrameType.BODY:
+            continue
+        k, parent = f.parentFrame, None
+        while k != 0 and k != fid:
+            if frames[k].type == pin.FrameType.BODY:
+                parent = frames[k].name
+                break
+            k = frames[k].parentFrame
+        out.append({"name": f.name, "parent": parent})
+    return out
+
+
+def _aux(params, res) -> np.ndarray:
+    """A residual's auxiliary values from a parameter set (its own initial values where absent)."""
+    return np.array([params[p.name].value if p.name in params else p.value for p in res.aux_parameters()])
+
+
+# ---- per measurement type: (measured points, predicted points) of a term, world frame --------------
+def _points(res, k, M, aux) -> tuple[np.ndarray, np.ndarray]:
+    t = res.type_name
+    if t == "pose":
+        return res.measurements[k, None, :3], M.translation[None, :]
+    if t == "point":
+        return res.measurements[k, None, :], M.act(aux[:3])[None, :]
+    if t == "rigid_points":
+        P = aux.reshape(-1, 3)
+        return res.measurements[k].reshape(-1, 3), P @ M.rotation.T + M.translation
+    if t == "plane":
+        x = M.act(aux[3:6])
+        n = res.normal(aux)
+        r = n @ x - aux[2] - res.tip_radius
+        return (x - r * n)[None, :], x[None, :]
+    if t in ("sphere", "ball_bar"):
+        c = aux[:3]
+        x = M.act(aux[4:7])
+        e = (x - c) / np.linalg.norm(x - c)
+        length = aux[3] + res.tip_radius if t == "sphere" else res.measurements[k, 0] + aux[3]
+        return (c + length * e)[None, :], x[None, :]
+    if t == "cylinder":
+        a, u = res.axis(aux)
+        x = M.act(aux[5:8])
+        w = x - a
+        perp = w - (w @ u) * u
+        h = np.linalg.norm(perp)
+        touch = aux[4] + res.contact_sign * res.tip_radius
+        return (x - (h - touch) * perp / h)[None, :], x[None, :]
+    if t == "laser_line":
+        P, o = aux[:3], M.act(aux[3:6])
+        u = M.rotation @ tilted_direction(res.R0, aux[6], aux[7])[0]
+        return P[None, :], (o + ((P - o) @ u) * u)[None, :]
+    return np.zeros((0, 3)), np.zeros((0, 3))
+
+
+def _artefact(res, aux) -> dict | None:
+    t = res.type_name
+    if t == "plane":
+        n = res.normal(aux)
+        return {"kind": "plane", "normal": n.tolist(), "offset": float(aux[2])}
+    if t == "sphere":
+        return {"kind": "sphere", "centre": aux[:3].tolist(), "radius": float(aux[3])}
+    if t == "cylinder":
+        a, u = res.axis(aux)
+        return {"kind": "cylinder", "point": a.tolist(), "direction": u.tolist(), "radius": float(aux[4])}
+    if t == "ball_bar":
+        return {"kind": "ball_bar", "centre": aux[:3].tolist()}
+    if t == "laser_line":
+        return {"kind": "laser_line", "target": aux[:3].tolist()}
+    return None
+
+
+def scene_data(problem, result, params_before) -> dict:
+    """The scene of a calibration as plain data (see module doc). `problem` may be a config Setup."""
+    problem = getattr(problem, "problem", problem)
+    robot = problem.robot
+    links = link_tree(robot)
+    measured_frames = [f for f in dict.fromkeys(getattr(r, "frame", None) for r in problem.residuals) if f]
+    frame_names = list(dict.fromkeys([lk["name"] for lk in links] + measured_frames))
+    param_sets = {"before": params_before, "after": problem.params}
+    states = {s: LazyStates(ModelState(robot, p, problem.joint_names), problem.values) for s, p in param_sets.items()}
+    n = len(problem.values)
+    poses = {s: [[_pose7(states[s][i].pose(f)) for f in frame_names] for i in range(n)] for s in STATES}
+    blocks = []
+    for res in problem.residuals:
+        block = {"name": res.name, "type": res.type_name, "frame": getattr(res, "frame", None),
+                 "samples": res.samples.tolist(), "row_units": list(res.row_units),
+                 "sigma": res.sigma.tolist()}
+        for s in STATES:
+            aux = _aux(param_sets[s], res)
+            meas, pred, rows, beams = [], [], [], []
+            for k in range(res.n_terms):
+                i = int(res.samples[k])
+                M = states[s][i].pose(res.frame) if hasattr(res, "frame") else None
+                rows.append(res.evaluate(k, states[s], aux).r.tolist())
+                if M is not None:
+                    m, p = _points(res, k, M, aux)
+                    meas.append(m.tolist())
+                    pred.append(p.tolist())
+                    if res.type_name == "laser_line":
+                        beams.append(M.act(aux[3:6]).tolist())   # where the beam leaves the tool
+            block[f"measured_{s}"] = meas
+            block[f"predicted_{s}"] = pred
+            block[f"residual_{s}"] = rows
+            block[f"artefact_{s}"] = _artefact(res, aux) if hasattr(res, "frame") else None
+            if beams:
+                block[f"beam_origin_{s}"] = beams
+            if res.type_name == "pose":
+                block[f"orientation_{s}"] = [pin.Quaternion(states[s][int(i)].pose(res.frame).rotation).coeffs().tolist()
+                                             for i in res.samples]
+        if res.type_name == "pose":
+            block["measured_orientation"] = res.measurements[:, 3:7].tolist()
+        if not block["measured_after"]:
+            log.info("block %s (%s): no points to draw for this measurement type", res.name, res.type_name)
+        blocks.append(block)
+    sel = result.selection
+    return {
+        "format": FORMAT, "version": VERSION, "units": "SI (m, rad)",
+        "robot": {"name": robot.name, "urdf_path": str(robot.urdf_path) if robot.urdf_path else None,
+                  "package_dirs": list(robot.package_dirs), "links": links,
+                  "closed_chain": robot.loops is not None},
+        "joint_names": list(problem.joint_names),
+        "values": problem.values.tolist(),
+        "frames": frame_names,
+        "poses": poses,
+        "blocks": blocks,
+        "identification": {"singular_values": np.asarray(sel.singular_values, float).tolist(), "rank": sel.rank,
+                           "requested": len(result.requested), "rtol": sel.rtol, "condition": result.condition},
+    }
+
+
+def scene_bytes(problem, result, params_before) -> bytes:
+    """scene.json content for `write_results(..., extra={"scene.json": ...})`."""
+    return json.dumps(scene_data(problem, result, params_before), separators=(",", ":")).encode("utf-8")
+
+
+def read_scene(path: str | Path) -> dict:
+    """Load and check a scene.json (a file, or a result folder holding one)."""
+    path = Path(path)
+    if path.is_dir():
+        path = path / "scene.json"
+    if not path.is_file():
+        raise InputError("no scene.json: this result was written without visual-check data "
+                         "(re-run `robocal calibrate` with a version that writes it)", source=str(path))
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except json.JSONDecodeError as exc:
+        raise InputError(f"not valid JSON: {exc.msg}", source=str(path), row=exc.lineno) from exc
+    if not isinstance(data, dict) or data.get("format") != FORMAT:
+        raise InputError(f"not a robocal scene file (expected format '{FORMAT}')", source=str(path), field="format")
+    if data.get("version") != VERSION:
+        raise InputError(f"scene file version {data.get('version')} is not supported (expected {VERSION})",
+                         source=str(path), field="version")
+    for key in ("robot", "frames", "poses", "blocks", "values", "identification"):
+        if key not in data:
+            raise InputError("required key is missing", source=str(path), field=key)
+    n = len(data["values"])
+    for s in STATES:
+        if len(data["poses"].get(s, [])) != n:
+            raise InputError(f"poses.{s} must have one entry per sample ({n})", source=str(path), field=f"poses.{s}")
+    return data

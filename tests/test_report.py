@@ -1,0 +1,88 @@
+"""`robocal report` / `robocal view --html`: one self-contained HTML file with tables, plots and scene."""
+import argparse
+import base64
+import html
+import json
+import re
+import shutil
+
+import pytest
+
+from robocal.errors import InputError
+from robocal.report import report_bytes, write_report
+from robocal.view_cli import add_parsers, cmd_report, cmd_view
+from test_viz_scene_data import all_types_case, all_types_scene, demo_result_dir
+
+
+def _parse(argv):
+    parser = argparse.ArgumentParser()
+    add_parsers(parser.add_subparsers(dest="command", required=True))
+    return parser.parse_args(argv)
+
+
+def _tables(page):
+    return re.findall(r'<table class="(\w+)">', page)
+
+
+def test_report_of_the_demo_result_has_tables_plots_statements_and_scene(tmp_path):
+    folder = demo_result_dir()
+    out = tmp_path / "report.html"
+    args = _parse(["report", str(folder), "-o", str(out), "--no-meshes"])
+    assert cmd_report(args) == 0
+    page = out.read_text()
+    assert _tables(page) == ["summary", "residuals", "parameters"]
+    result = json.loads((folder / "result.json").read_text())
+    for statement in result["identifiability"]["statements"]:
+        assert html.escape(statement) in page
+    assert "of 54 requested parameters can be determined" in page
+    images = re.findall(r'src="data:image/png;base64,([A-Za-z0-9+/=]+)"', page)
+    assert len(images) == 4          # residual per sample, histograms, parameters, singular values
+    assert all(base64.b64decode(i)[:4] == b"\x89PNG" and len(i) > 10_000 for i in images)
+    assert '<iframe class="scene"' in page and "MeshCat.Viewer" in html.unescape(page)
+    # every estimated parameter has a row, in mm / mrad
+    n_est = sum(p["vary"] for p in result["parameters"])
+    assert page.count("<td>estimated</td>") == n_est
+    assert "<td>mrad</td>" in page and "<td>mm</td>" in page
+
+
+def test_report_without_scene_still_has_tables(tmp_path):
+    folder = tmp_path / "result"
+    shutil.copytree(demo_result_dir(), folder)
+    (folder / "scene.json").unlink()
+    page = write_report(folder).read_text()
+    assert (folder / "report.html").is_file()
+    assert _tables(page) == ["summary", "residuals", "parameters"]
+    assert page.count('src="data:image/png') == 1 and "<iframe" not in page
+
+
+def test_report_bytes_from_objects_in_memory():
+    problem, result, before = all_types_case()
+    from robocal.scene_data import scene_bytes
+    page = report_bytes(result, scene_bytes(problem, result, before), meshes=False).decode()
+    # one residual plot per block (6) + histograms + parameters + singular values
+    assert page.count('src="data:image/png') == 9
+    for name in ("tracker", "table", "ball", "bore", "dbb", "laser"):
+        assert f"<td>{name}</td>" in page
+
+
+def test_report_of_a_folder_that_is_not_a_result(tmp_path):
+    with pytest.raises(InputError, match="result.json") as e:
+        write_report(tmp_path)
+    assert e.value.source.endswith("result.json")
+
+
+def test_view_html_writes_a_page_for_the_chosen_sample(tmp_path):
+    out = tmp_path / "scene.html"
+    assert cmd_view(_parse(["view", str(demo_result_dir()), "--html", str(out), "--sample", "7", "--no-meshes"])) == 0
+    page = out.read_text()
+    assert "robocalShow(m ? parseInt(m[1]) : 6)" in page
+    with pytest.raises(InputError) as e:
+        cmd_view(_parse(["view", str(demo_result_dir()), "--html", str(out), "--sample", "61"]))
+    assert e.value.field == "--sample"
+
+
+def test_scene_page_is_deterministic():
+    """Same data, same bytes: meshcat's random object ids are replaced by ids derived from the node path."""
+    from robocal.viz import SceneView
+    pages = [SceneView(all_types_scene(), meshes=False).static_html() for _ in range(2)]
+    assert pages[0] == pages[1]
