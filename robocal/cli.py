@@ -20,6 +20,7 @@ def cmd_calibrate(args) -> int:
     from .calibrate import calibrate
     from .config import load_config
     from .output import write_results
+    from .scene_data import scene_bytes
 
     setup = load_config(args.config)
     out = Path(args.output).resolve() if args.output else setup.output_dir
@@ -28,9 +29,18 @@ def cmd_calibrate(args) -> int:
     p = setup.problem
     print(f"robocal: {setup.robot.name}: {len(p.values)} samples, {sum(r.n_terms for r in p.residuals)} "
           f"measurements in {len(p.residuals)} blocks, {len(p.params.free_names)} free parameters", file=sys.stderr)
+    before = p.params.copy()      # the scene shows the model before and after the fit
     result = calibrate(p, setup.options, progress=None if args.quiet else _progress,
                        source=", ".join(str(t.path) for t in setup.tables.values()))
-    files = write_results(setup.robot, result, out, force=args.force, allow_failed=args.allow_failed)
+    extra = {"scene.json": scene_bytes(setup, result, before)}
+    if not args.no_report and (setup.raw.get("output") or {}).get("report", True):
+        try:
+            from .report import report_bytes
+            extra["report.html"] = report_bytes(result, extra["scene.json"], meshes=False)  # 1.5 MB, not 10
+        except ImportError as exc:   # matplotlib / meshcat come with the [viz] extra
+            print(f"robocal: no report.html ({exc.name} is not installed: pip install 'robocal[viz]')",
+                  file=sys.stderr)
+    files = write_results(setup.robot, result, out, force=args.force, allow_failed=args.allow_failed, extra=extra)
     print(result.summary())
     print("\nWrote " + ", ".join(str(f) for f in files.values()))
     if not result.success:
@@ -72,13 +82,21 @@ def main(argv: list[str] | None = None) -> int:
     d.add_argument("-o", "--output", help="output folder (default: ./robocal-demo-output)")
     for p in (c, s, d):
         p.add_argument("--force", action="store_true", help="replace existing output")
+    from .iso9283_cli import add_parser as add_iso9283_parser, cmd_iso9283
+    add_iso9283_parser(sub)
+    from .plan_cli import add_parser as add_plan_parser, cmd_plan
+    add_plan_parser(sub)
+    from .view_cli import add_parsers as add_view_parsers, cmd_report, cmd_view
+    add_view_parsers(sub)
     for p in (c, d):
         p.add_argument("-q", "--quiet", action="store_true", help="no progress display")
         p.add_argument("--allow-failed", action="store_true", help="write the URDF even if the fit failed")
+        p.add_argument("--no-report", action="store_true", help="do not write report.html")
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING, format="%(name)s: %(message)s")
     np.set_printoptions(precision=6, suppress=True)
-    handler = {"calibrate": cmd_calibrate, "simulate": cmd_simulate, "demo": cmd_demo}[args.command]
+    handler = {"calibrate": cmd_calibrate, "simulate": cmd_simulate, "demo": cmd_demo,
+               "iso9283": cmd_iso9283, "plan": cmd_plan, "view": cmd_view, "report": cmd_report}[args.command]
     try:
         return handler(args)
     except RobocalError as exc:

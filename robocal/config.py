@@ -23,7 +23,7 @@ from .problem import Problem
 from .residuals import REGISTRY
 from .robot import Robot, load_example, load_urdf
 
-TOP_KEYS = ("robot", "data", "parameters", "measurements", "solver", "output", "simulation")
+TOP_KEYS = ("robot", "data", "parameters", "measurements", "solver", "output", "simulation", "iso9283", "plan")
 
 
 class Cfg:

@@ -5,6 +5,7 @@ when complete: a failure leaves no half-written output behind.
 """
 from __future__ import annotations
 
+import os
 import shutil
 import tempfile
 from pathlib import Path
@@ -26,6 +27,9 @@ def write_results(robot, result, out_dir: str | Path, force: bool = False, allow
         raise InputError("the output folder holds the input URDF; choose another folder", source=str(out))
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(dir=out.parent, prefix=f".{out.name}."))
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(tmp, 0o777 & ~umask)   # mkdtemp makes it private; the result is an ordinary folder
     files: dict[str, Path] = {}
     try:
         (tmp / "result.json").write_text(result.to_json() + "\n")
