@@ -67,7 +67,16 @@ def calibrate(problem: Problem, options: CalibrationOptions | None = None,
     # axis) can hide a parameter completely; such parameters, and only those, are examined again at the
     # solution, and the fit repeated with the ones the data now determine. Structural dependencies
     # decided at the start stay decided, so the same data always give the same set.
-    selection = _apply_selection(params, requested, ev0.J, opt.rank_rtol)
+    # Identifiability is a property of the data: prior rows are left out of the selection, and parameters
+    # with a prior are then kept whatever the data say (their prior determines them).
+    data_rows = np.ones(m, bool)
+    for b in problem.blocks:
+        if b.type_name == "prior":
+            data_rows[b.rows] = False
+    with_prior = [j for j, n in enumerate(requested) if params[n].prior_sigma is not None]
+    first = select_base_parameters(ev0.J[data_rows], requested, opt.rank_rtol)
+    prior_only = [requested[j] for j in first.dependent if j in with_prior]
+    selection = _apply_selection(params, requested, None, opt.rank_rtol, first.keep_also(with_prior))
     kept = [requested.index(n) for n in params.free_names]          # the solver starts where ev0 was taken
     last["x"], last["ev"] = params.free_values(), Evaluation(ev0.r, ev0.J[:, kept], ev0.raw, ev0.group)
     for _attempt in range(MAX_SELECTION_PASSES):
@@ -83,7 +92,8 @@ def calibrate(problem: Problem, options: CalibrationOptions | None = None,
         for name in requested:
             params[name].vary = True
         allowed = set(selection.independent) | set(hidden)
-        again = select_base_parameters(problem.evaluate().J, requested, opt.rank_rtol, allowed)
+        again = select_base_parameters(problem.evaluate().J[data_rows], requested, opt.rank_rtol,
+                                       allowed).keep_also(with_prior)
         if again.independent == selection.independent:   # same set; explain it as seen at the solution
             selection = _apply_selection(params, requested, None, opt.rank_rtol, again)
             break
@@ -107,7 +117,7 @@ def calibrate(problem: Problem, options: CalibrationOptions | None = None,
     return CalibrationResult(
         params=params, requested=requested, selection=selection, covariance=cov, before=before, after=after,
         solve=sol, dof=dof, sigma2=sigma2, condition=final_sel.condition, ill_conditioned=ill,
-        condition_limit=opt.condition_limit, n_rows=m)
+        condition_limit=opt.condition_limit, n_rows=m, prior_only=prior_only)
 
 
 def _apply_selection(params, requested, J, rtol, selection=None):

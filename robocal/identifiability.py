@@ -58,6 +58,21 @@ class BaseSelection:
                if scale > 0 and abs(c) > threshold * max(scale, 1.0)]
         return sorted(out, key=lambda t: -abs(t[1]))
 
+    def keep_also(self, indices) -> "BaseSelection":
+        """The same selection with some dependent columns kept anyway (parameters with priors)."""
+        extra = [j for j in self.dependent if j in set(indices)]
+        if not extra:
+            return self
+        independent = sorted(self.independent + extra)
+        dependent = [j for j in self.dependent if j not in extra]
+        rows = {j: k for k, j in enumerate(self.independent)}
+        regroup = np.zeros((len(independent), len(dependent)))
+        for k_new, j in enumerate(independent):
+            if j in rows:
+                regroup[k_new] = self.regrouping[rows[j], [self.dependent.index(d) for d in dependent]]
+        return BaseSelection(self.names, independent, dependent, regroup, self.condition, self.singular_values,
+                             self.rtol)
+
     def describe(self) -> list[str]:
         """One sentence per dropped parameter, naming what it is confounded with."""
         lines = []

@@ -5,7 +5,7 @@ The library never prints; `summary()` returns the text that the CLI shows.
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -61,6 +61,7 @@ class CalibrationResult:
     ill_conditioned: bool
     condition_limit: float
     n_rows: int
+    prior_only: list[str] = field(default_factory=list)   # kept only because a prior determines them
 
     @property
     def success(self) -> bool:
@@ -84,6 +85,8 @@ class CalibrationResult:
         lines = [f"{self.selection.rank} of {len(self.requested)} requested parameters can be determined "
                  f"from these measurements."]
         lines += [s + "; fixed at its initial value." for s in self.selection.describe()]
+        if self.prior_only:
+            lines.append("Determined by their priors only, not by the data: " + ", ".join(self.prior_only) + ".")
         if self.ill_conditioned:
             lines.append(f"The fit is ill-conditioned: condition number {self.condition:.3g} exceeds "
                          f"{self.condition_limit:.3g}; estimates along the weakest directions are unreliable.")
@@ -103,6 +106,7 @@ class CalibrationResult:
                 "requested": len(self.requested),
                 "rank": self.selection.rank,
                 "unidentifiable": self.unidentifiable,
+                "prior_only": self.prior_only,
                 "statements": self.identifiability_statements(),
                 "rank_rtol": self.selection.rtol,
             },

@@ -47,8 +47,15 @@ class SolveResult:
 
 
 def robust_weights(r: np.ndarray, group: np.ndarray, loss: str, f_scale: float) -> tuple[np.ndarray, float]:
-    """Row weights sqrt(rho'(s_g)) and the cost 1/2 sum rho(s_g), s_g the squared norm of term g."""
-    s = np.bincount(group, weights=r * r) if len(r) else np.zeros(0)
+    """Row weights sqrt(rho'(s_g)) and the cost 1/2 sum d_g rho(s_g).
+
+    s_g is the mean square per row of term g (d_g rows), so the knee f_scale means the same, in sigmas,
+    for a 1-row contact and a 6-row pose.
+    """
+    if not len(r):
+        return np.zeros(0), 0.0
+    d = np.bincount(group).astype(float)
+    s = np.bincount(group, weights=r * r) / np.maximum(d, 1.0)
     c2 = f_scale ** 2
     if loss == "linear":
         rho, drho = s, np.ones_like(s)
@@ -61,7 +68,7 @@ def robust_weights(r: np.ndarray, group: np.ndarray, loss: str, f_scale: float) 
         rho, drho = 2.0 * c2 * (t - 1.0), 1.0 / t
     else:
         raise ValueError(f"unknown loss '{loss}'; use one of {LOSSES}")
-    return np.sqrt(drho)[group], 0.5 * float(rho.sum())
+    return np.sqrt(drho)[group], 0.5 * float((d * rho).sum())
 
 
 def levenberg_marquardt(fun: Callable, x0: np.ndarray, lower=None, upper=None, loss: str = "linear",
