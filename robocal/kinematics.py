@@ -39,6 +39,8 @@ class ModelState:
         # Maps from "twist of a placement" / "joint velocity" to the free-parameter vector.
         self.P_joint = np.zeros((6 * nj, self.n_free))
         self.offsets = np.zeros(len(self.joint_names))
+        self.compliance = np.zeros(len(self.joint_names))
+        self.compliance_cols: list[tuple[int, int, int]] = []   # (read index, v index, free column)
         self.P_offset = np.zeros((self.model.nv, self.n_free))
         self.P_frame: dict[int, np.ndarray] = {}
         self.P_base = np.zeros((6, self.n_free))
@@ -51,6 +53,13 @@ class ModelState:
         for p in params:
             if p.kind in ("joint_placement", "frame_placement", "base"):
                 groups[(p.kind, p.target)] = None
+            elif p.kind == "joint_compliance":
+                if p.target not in read_v:
+                    raise ValueError(f"compliance parameter {p.name}: joint '{p.target}' is not read by the data")
+                k, iv = read_v[p.target]
+                self.compliance[k] = p.value
+                if p.name in col:
+                    self.compliance_cols.append((k, iv, col[p.name]))
             elif p.kind == "joint_offset":
                 if p.target not in read_v:
                     raise ValueError(f"offset parameter {p.name}: joint '{p.target}' is not read by the data")
@@ -90,6 +99,8 @@ class ModelState:
         self._owner: SampleState | None = None
         self.has_joint_params, self.has_base_params = bool(self.P_joint.any()), bool(self.P_base.any())
         self._qmap = ConfigurationMap(robot, self.joint_names)
+        if self.compliance.any() or self.compliance_cols:
+            self._gdata = nominal.createData()
         self.loops = robot.loops
         self.warm_starts: dict = {}      # sample label -> last assembled q (shared across parameter updates)
         if self.loops is not None:
@@ -107,7 +118,17 @@ class ModelState:
         """
         return SampleState(self, np.asarray(values, dtype=float), label, q_guess)
 
-    def configuration(self, values: np.ndarray, q_guess: np.ndarray | None = None, label=None) -> np.ndarray:
+    def gravity_torque(self, values: np.ndarray) -> np.ndarray:
+        """(n_read,) gravity torque of the nominal model at the readings (the compliance load)."""
+        if not hasattr(self, "_gdata"):
+            return np.zeros(len(self.joint_names))
+        tau = pin.computeGeneralizedGravity(self.robot.model, self._gdata, self._qmap(values))
+        return tau[self._read_v_index]
+
+    def configuration(self, values: np.ndarray, q_guess: np.ndarray | None = None, label=None,
+                      tau: np.ndarray | None = None) -> np.ndarray:
+        if tau is not None:
+            values = values - self.compliance * tau
         q = self._qmap(values + self.offsets)
         if self.loops is None:
             return q
@@ -127,7 +148,8 @@ class SampleState:
 
     def __init__(self, ms: ModelState, values: np.ndarray, label=None, q_guess=None):
         self.ms, self.values, self.label = ms, values, label
-        self.q = ms.configuration(values, q_guess, label)
+        self.tau = ms.gravity_torque(values) if hasattr(ms, "_gdata") else None
+        self.q = ms.configuration(values, q_guess, label, self.tau)
         self._cache: dict[int, tuple] = {}
         self._implicit = None
 
@@ -154,7 +176,10 @@ class SampleState:
         return self._frame(frame)[0]
 
     def frame_joint_jacobian(self, frame) -> np.ndarray:
-        """(6, n_read) LOCAL twist of the frame per unit of each read joint (loops closed)."""
+        """(6, n_read) LOCAL twist of the frame per unit of each read joint (loops closed).
+
+        The gravity load's own change with the readings (compliance x d tau_g / dq, a second-order term)
+        is left out."""
         Jq = self._frame(frame)[2]
         J = Jq[:, self.ms._read_v_index]
         if self.ms.loops is not None:
@@ -178,6 +203,8 @@ class SampleState:
             fid = frame if isinstance(frame, int) else ms.robot.frame_id(frame)
             self._activate()
             J = hit[2] @ ms.P_offset
+            for k, iv, c in ms.compliance_cols:          # d q_link / d c = -tau_g
+                J[:, c] -= hit[2][:, iv] * self.tau[k]
             if ms.has_joint_params:
                 reg = pin.computeFrameKinematicRegressor(ms.model, ms.data, fid, LOCAL)
                 J += reg @ ms.P_joint

@@ -7,6 +7,8 @@ Kinds and their names (components follow Pinocchio's twist order tx ty tz rx ry 
   joint_offset     <joint>.offset             encoder zero: q_model = q_read + offset
   frame_placement  <frame>.tx .. <frame>.rz   frame placement <- placement * exp6(delta)
   base             base.tx .. base.rz          measurement frame -> robot root, right perturbation
+  joint_compliance <joint>.compliance         elastic sag under gravity: q_link = q_read + offset - c * tau_g,
+                                              tau_g the gravity torque of the nominal model (rad/(N m), m/N)
   auxiliary        <residual>.<name>           unknowns of a measurement set-up (plane, sphere centre, ...)
 
 Packing to and from the solver's vector happens here only (`free_values` / `set_free_values`).
@@ -22,7 +24,7 @@ import numpy as np
 from .errors import InputError
 
 COMPONENTS = ("tx", "ty", "tz", "rx", "ry", "rz")
-KINDS = ("joint_placement", "joint_offset", "frame_placement", "base", "auxiliary")
+KINDS = ("joint_placement", "joint_offset", "frame_placement", "base", "auxiliary", "joint_compliance")
 
 
 @dataclass
@@ -170,12 +172,13 @@ def offset_parameter(joint: str, unit: str = "rad") -> Parameter:
 
 
 def robot_parameters(robot, joints: list[str], preset: str = "full", frames: dict[str, tuple] | None = None,
-                     base: tuple | bool = False) -> ParameterSet:
+                     base: tuple | bool = False, compliance: bool | list[str] = False) -> ParameterSet:
     """Parameters for a preset over `joints`, plus chosen frame and base components.
 
     preset: "offsets" (one zero offset per joint), "full" (offset + 6 placement components per joint),
             "placements" (6 placement components, no offsets) or "none".
-    frames: {frame_name: components} (True = all six), base: components or True.
+    frames: {frame_name: components} (True = all six), base: components or True,
+    compliance: True (every joint in `joints`) or a list of joints that get a compliance parameter.
     Joints of a prismatic kind get their offset in metres.
     """
     ps = ParameterSet()
@@ -195,6 +198,10 @@ def robot_parameters(robot, joints: list[str], preset: str = "full", frames: dic
         if preset in ("full", "placements"):
             for p in placement_parameters("joint_placement", j):
                 ps.add(p)
+    for j in (joints if compliance is True else list(compliance or [])):
+        jm = robot.model.joints[robot.joint_id(j)]
+        unit = "m/N" if jm.shortname().startswith("JointModelP") else "rad/(N m)"
+        ps.add(Parameter(f"{j}.compliance", "joint_compliance", j, 0, unit=unit))
     for frame, comps in (frames or {}).items():
         robot.frame_id(frame)
         comps = COMPONENTS if comps is True else tuple(comps)

@@ -118,7 +118,8 @@ class CalibrationResult:
         }
 
     def to_json(self) -> str:
-        return json.dumps(self.to_dict(), indent=2, default=_json_default)
+        """Strict JSON: non-finite numbers (an infinite condition number, a missing standard error) are null."""
+        return json.dumps(_finite(self.to_dict()), indent=2, default=_json_default, allow_nan=False)
 
     def summary(self) -> str:
         lines = [f"Calibration {self.status}: {self.solve.message} after {self.solve.nit} iterations",
@@ -135,6 +136,16 @@ class CalibrationResult:
             lines.append(f"  {name:<32}{p.value:>+14.6g} {p.unit:<4} +- {se}")
         lines += ["", "Identifiability:"] + [f"  {s}" for s in self.identifiability_statements()]
         return "\n".join(lines)
+
+
+def _finite(o):
+    if isinstance(o, dict):
+        return {k: _finite(v) for k, v in o.items()}
+    if isinstance(o, (list, tuple)):
+        return [_finite(v) for v in o]
+    if isinstance(o, (float, np.floating)):
+        return float(o) if np.isfinite(o) else None
+    return o
 
 
 def _json_default(o):

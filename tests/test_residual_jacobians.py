@@ -87,3 +87,18 @@ def test_frame_parameter_moves_joints_hanging_below_it():
     res = PointResidual("tip", "gripper_left_fingertip_link", np.arange(3), rng.normal(size=(3, 3)))
     problem = Problem(robot, params, joints, values, [res])
     assert _fd_check(problem) < 1e-7
+
+
+def test_joint_compliance_parameters_match_finite_differences():
+    """Compliance: q_link = q_read + offset - c * tau_g(q_read); exact derivative -tau_g per joint."""
+    rng = np.random.default_rng(4)
+    robot = load_example("ur5")
+    joints = robot.joint_names
+    params = robot_parameters(robot, joints, "full", base=True, compliance=True)
+    for p in params:
+        p.value = rng.normal(0, 1e-4 if p.kind == "joint_compliance" else 0.01)
+    values = rng.uniform(-2, 2, (4, len(joints)))
+    res = PoseResidual("pose", "tool0", np.arange(4), np.hstack([rng.normal(size=(4, 3)), _q(rng, 4)]))
+    problem = Problem(robot, params, joints, values, [res])
+    assert any(abs(problem.states()[0].tau).max() > 1.0 for _ in [0])   # UR5 carries real gravity load
+    assert _fd_check(problem) < 1e-7

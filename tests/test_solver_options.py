@@ -77,3 +77,14 @@ def test_ill_conditioned_fit_is_not_reported_as_success():
     result = calibrate(problem, CalibrationOptions(condition_limit=1.5))
     assert result.ill_conditioned and not result.success and result.status == "ill-conditioned"
     assert any("ill-conditioned" in s for s in result.identifiability_statements())
+
+
+def test_result_json_is_strict_even_with_infinite_condition():
+    import json
+    rng = np.random.default_rng(15)
+    problem = ur5_pose_problem(rng, 40)
+    simulate_measurements(problem, perturb(problem.params, rng), rng)
+    result = calibrate(problem)
+    result.condition = float("inf")
+    doc = json.loads(result.to_json())          # json.loads rejects nothing, so check the text too
+    assert doc["condition_number"] is None and "Infinity" not in result.to_json()
