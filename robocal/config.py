@@ -90,15 +90,20 @@ def _se3(cfg: Cfg) -> pin.SE3:
     return pin.SE3(pin.rpy.rpyToMatrix(*rpy), xyz)
 
 
-def load_config(path: str | Path) -> Setup:
-    path = Path(path).resolve()
+def read_yaml(path: Path):
+    """The parsed YAML file, or an InputError naming the file and line."""
     if not path.is_file():
         raise InputError("config file not found", source=str(path))
     try:
-        raw = yaml.safe_load(path.read_text(encoding="utf-8"))
+        return yaml.safe_load(path.read_text(encoding="utf-8"))
     except yaml.YAMLError as exc:
         line = getattr(getattr(exc, "problem_mark", None), "line", None)
         raise InputError(f"not valid YAML: {exc}", source=str(path), row=None if line is None else line + 1) from exc
+
+
+def load_config(path: str | Path) -> Setup:
+    path = Path(path).resolve()
+    raw = read_yaml(path)
     root = Cfg(raw, "", str(path))
     root.check_keys(TOP_KEYS)
     return build_setup(root, path.parent, raw)

@@ -116,7 +116,6 @@ def reading_noise_covariance(problem: Problem, sigma_q) -> np.ndarray:
         keep = scale != 0
         for k in range(res.n_terms):
             t = res.evaluate(k, states, aux)
-            A = np.zeros((res.dim, len(problem.joint_names)))
             by_sample: dict[int, np.ndarray] = {}
             for i, frame, D in t.frames:
                 by_sample[i] = by_sample.get(i, 0) + D @ states[i].frame_joint_jacobian(frame)

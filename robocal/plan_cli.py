@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import copy
 import json
-import shutil
 import sys
 import tempfile
 from dataclasses import dataclass
@@ -32,7 +31,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from .config import TOP_KEYS, Cfg, _robot, build_setup
+from .config import TOP_KEYS, Cfg, _robot, build_setup, read_yaml
 from .data import ANGLE_UNITS, LENGTH_UNITS, write_csv
 from .design import DesignMatrix, PoseSelection, select_poses
 from .design_candidates import CandidateFilter, MeasurementVolume, filter_candidates, grid_candidates, \
@@ -40,6 +39,7 @@ from .design_candidates import CandidateFilter, MeasurementVolume, filter_candid
 from .design_criteria import CRITERIA
 from .errors import InputError
 from .kinematics import ModelState
+from .output import write_folder
 from .parameters import ParameterSet
 from .prediction import (CurvePoint, ParameterPrediction, PosePrediction, accuracy_curve, pose_jacobians,
                          position_weight, predict_parameters, predict_pose_accuracy)
@@ -76,12 +76,7 @@ class Plan:
 
 def plan_from_config(path: str | Path, seed: int | None = None) -> Plan:
     path = Path(path).resolve()
-    if not path.is_file():
-        raise InputError("config file not found", source=str(path))
-    try:
-        raw = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except yaml.YAMLError as exc:
-        raise InputError(f"not valid YAML: {exc}", source=str(path)) from exc
+    raw = read_yaml(path)
     root = Cfg(raw, "", str(path))
     root.check_keys(tuple(TOP_KEYS) + ("plan",))
     plan = root.child("plan", {})
@@ -255,7 +250,7 @@ def summary(plan: Plan) -> str:
     sel, acc = plan.selection, plan.accuracy.summary()
     lines = [f"robocal plan: {len(sel.chosen)} poses of {len(plan.candidates)} candidates by {sel.criterion}-optimality "
              f"({sel.exchanges} exchanges after the greedy start)",
-             f"  dropped candidates: " + ", ".join(f"{k} {v}" for k, v in plan.screening.dropped.items()),
+             "  dropped candidates: " + ", ".join(f"{k} {v}" for k, v in plan.screening.dropped.items()),
              f"  identifiable parameters: {len(plan.parameters.names)}; fixed (never identifiable from these "
              f"measurements): {len(plan.parameters.structural)}"]
     if not sel.identifiability.ok:
@@ -277,26 +272,8 @@ def summary(plan: Plan) -> str:
 def write_plan(plan: Plan, out_dir: str | Path | None = None, force: bool = False) -> dict[str, Path]:
     """Write every plan file into a temporary folder renamed into place when complete."""
     out = Path(out_dir).resolve() if out_dir else plan.output_dir
-    if out.exists() and not force:
-        raise InputError("output folder exists; pass --force to replace it", source=str(out))
-    out.parent.mkdir(parents=True, exist_ok=True)
     files = plan_files(plan)
-    tmp = Path(tempfile.mkdtemp(dir=out.parent, prefix=f".{out.name}."))
-    try:
-        for name, content in files.items():
-            (tmp / name).write_bytes(content)
-        if out.exists():
-            old = out.with_name(f".{out.name}.old")
-            shutil.rmtree(old, ignore_errors=True)
-            out.rename(old)
-            tmp.rename(out)
-            shutil.rmtree(old, ignore_errors=True)
-        else:
-            tmp.rename(out)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
-    return {name: out / name for name in files}
+    return write_folder(out, files, force)
 
 
 # ---- command line ----------------------------------------------------------------------------

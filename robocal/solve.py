@@ -85,6 +85,7 @@ def levenberg_marquardt(fun: Callable, x0: np.ndarray, lower=None, upper=None, l
     x = np.clip(np.asarray(x0, float), lower, upper)
     r, J, group = fun(x)
     w, cost = robust_weights(r, group, loss, f_scale)
+    cost0 = cost
     rw, Jw = r * w, J * w[:, None]
     D = np.maximum(np.linalg.norm(Jw, axis=0), 1e-12)
     lam, history = 1e-3, []
@@ -108,6 +109,9 @@ def levenberg_marquardt(fun: Callable, x0: np.ndarray, lower=None, upper=None, l
             predicted = -(g @ dx) - 0.5 * np.sum((Jw @ dx) ** 2)
             if cost_new < cost or (cost_new <= cost and predicted <= 0):
                 break
+            if predicted <= 1e-14 * cost or cost <= 1e-28 * cost0:
+                # even the model predicts nothing to gain: the fit is exact to rounding (noise-free data)
+                return SolveResult(x, cost, r, J, 4, "cost at the rounding level", it, history, w)
             lam *= 4.0
             if lam > 1e16:
                 return SolveResult(x, cost, r, J, -1, "no step reduces the cost (local minimum or bad Jacobian)",

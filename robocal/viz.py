@@ -433,10 +433,10 @@ class SceneView:
                 f'{self.n_samples} samples. <span id="robocal-sample"></span>',
                 '<button onclick="robocalShow(robocalSample-1)">&#9664; previous</button> '
                 '<button onclick="robocalShow(robocalSample+1)">next &#9654;</button>',
-                f'<span class="dot" style="background:#202020"></span> measured '
-                f'<span class="dot" style="background:#1f77b4"></span> predicted after '
-                f'<span class="dot" style="background:#ff8c00"></span> predicted before (hidden: toggle in the '
-                f'meshcat menu) &middot; orange skeleton: robot before calibration']
+                '<span class="dot" style="background:#202020"></span> measured '
+                '<span class="dot" style="background:#1f77b4"></span> predicted after '
+                '<span class="dot" style="background:#ff8c00"></span> predicted before (hidden: toggle in the '
+                'meshcat menu) &middot; orange skeleton: robot before calibration']
         for s in ("before", "after"):
             rows.append(f'residual {s}: <span class="bar"></span> 0 &ndash; {1e3 * self.arrow_max[s]:.3g} mm, '
                         f'arrows &times;{self.arrow_scale[s]:g}')

@@ -288,7 +288,7 @@ def build_urdf(geometry: StewartGeometry, name: str = "stewart") -> str:
     """URDF text (spanning tree + <loop_joint> closures + <actuated>) of a Stewart platform."""
     N, T, o = geometry.leg_base, geometry.leg_platform, geometry.offsets
     home_tips = geometry.home + T
-    out = [f'<?xml version="1.0"?>',
+    out = ['<?xml version="1.0"?>',
            f'<robot name="{name}">',
            "  <!-- Written by robocal.mechanisms.stewart.build_urdf. Units: m, rad.",
            "       N_j = origin xyz of leg{j}_u1; T_j = link2 xyz of loop_joint leg{j}_top (platform frame);",
