@@ -1,0 +1,70 @@
+"""The 4-PUU CMM through robocal's generic layer: URDF with loop closures, generic parameters and the
+sphere-artefact residual agree with the closed-form fast path (the independent check)."""
+from pathlib import Path
+
+import numpy as np
+
+from robocal import load_urdf
+from robocal.kinematics import ModelState
+from robocal.mechanisms import pcmm_errors as pe
+from robocal.mechanisms.pcmm import (build_urdf, generic_parameters, reference_artefact, reference_geometry,
+                                     reference_placements, reference_raw, simulate_probing, urdf_configuration,
+                                     write_urdf)
+from robocal.mechanisms.pcmm_kinematics import (inverse_kinematics, random_workspace_poses, tip_error_jacobian,
+                                                tip_points)
+from robocal.pcmm_calibration import evaluate
+from robocal.problem import Problem
+from robocal.residuals.sphere_artefact import SphereArtefactResidual
+
+URDF = Path(__file__).parents[1] / "urdf" / "pcmm_4puu.urdf"
+NOM = reference_geometry()
+
+
+def test_shipped_urdf_is_the_builders_reference_machine():
+    assert URDF.read_text(encoding="utf-8") == build_urdf(NOM)
+
+
+def test_urdf_fk_equals_closed_form_fk_on_a_perturbed_machine(tmp_path):
+    true = pe.reduce(pe.random_raw_errors(reference_raw(), np.random.default_rng(41)), NOM)
+    robot = load_urdf(write_urdf(true, tmp_path / "true.urdf"))
+    ps, _ = generic_parameters()
+    ms = ModelState(robot, ps, robot.loops.actuated)
+    Y = random_workspace_poses(6, np.random.default_rng(42))
+    rho = inverse_kinematics(true, Y)
+    for k in range(len(Y)):   # assembled from the URDF's neutral configuration, not from the answer
+        s = ms.sample(rho[k])
+        assert np.abs(s.pose("probe_tip").translation - tip_points(true, Y[k:k + 1])[0]).max() < 1e-10
+
+
+def test_generic_parameters_move_the_tip_like_their_reduced_parameters():
+    """Perturbing a generic parameter == perturbing its reduced one (first order, through the loops)."""
+    robot = load_urdf(URDF)
+    ps, _ = generic_parameters()
+    ms = ModelState(robot, ps, robot.loops.actuated)
+    Y = random_workspace_poses(4, np.random.default_rng(43))
+    rho = inverse_kinematics(NOM, Y)
+    Jc = tip_error_jacobian(NOM, Y, rho)
+    for k in range(len(Y)):
+        s = ms.sample(rho[k], q_guess=urdf_configuration(robot, NOM, Y[k], rho[k]))
+        Jg = s.pose("probe_tip").rotation @ s.frame_parameter_jacobian("probe_tip")[:3]
+        assert np.abs(Jg - Jc[k]).max() < 1e-10
+
+
+def test_sphere_residual_jacobian_through_the_generic_layer_equals_the_closed_form():
+    true = pe.reduce(pe.random_raw_errors(reference_raw(), np.random.default_rng(44)), NOM)
+    art = reference_artefact()
+    cen, yaw = reference_placements()
+    hits = simulate_probing(true, art, cen[:2], yaw[:2], np.random.default_rng(45), n_hits=5)
+    robot = load_urdf(URDF)
+    ps, _ = generic_parameters()
+    groups = hits.groups()
+    res = SphereArtefactResidual("artefact", "probe_tip", groups, art.radii, art.distances,
+                                 tip_radius=NOM.tip_radius, sigma_distance=1.0, sigma_radius=1.0)
+    problem = Problem(robot, ps, robot.loops.actuated, hits.readings, [res])
+    ev_c = evaluate(NOM, hits, art)
+    for i, (y, r) in enumerate(zip(ev_c.poses, hits.readings)):
+        problem.warm_starts[i] = urdf_configuration(robot, NOM, y, r)
+    ev_g = problem.evaluate()
+    np.testing.assert_allclose(ev_g.r, ev_c.rows, rtol=0, atol=1e-12)
+    # columns: generic_parameters() is in the reduced order, and Problem keeps that order for robot kinds
+    assert np.abs(ev_g.J - ev_c.jacobian).max() < 1e-9 * np.abs(ev_c.jacobian).max()
