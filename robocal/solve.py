@@ -88,7 +88,7 @@ def levenberg_marquardt(fun: Callable, x0: np.ndarray, lower=None, upper=None, l
     cost0 = cost
     rw, Jw = r * w, J * w[:, None]
     D = np.maximum(np.linalg.norm(Jw, axis=0), 1e-12)
-    lam, history = 1e-3, []
+    lam, history, good_model = 1e-3, [], False
     status, message = 0, "maximum number of iterations reached"
     for it in range(1, max_iterations + 1):
         g = Jw.T @ rw
@@ -98,8 +98,13 @@ def levenberg_marquardt(fun: Callable, x0: np.ndarray, lower=None, upper=None, l
             break
         Q, R = scipy.linalg.qr(Jw, mode="economic")
         qtr = Q.T @ rw
+        # After a step the model predicted well, try the undamped (Gauss-Newton) step first: on a
+        # well-modelled but ill-conditioned problem the damping would otherwise hold back the weak
+        # directions for many iterations while it decays.
+        undamped = good_model
         while True:
-            A = np.vstack([R, np.sqrt(lam) * np.diag(D)])
+            damping = 0.0 if undamped else lam
+            A = np.vstack([R, np.sqrt(damping) * np.diag(D)])
             b = -np.concatenate([qtr, np.zeros(n)])
             dx = np.linalg.lstsq(A, b, rcond=None)[0]
             x_new = np.clip(x + dx, lower, upper)
@@ -107,6 +112,11 @@ def levenberg_marquardt(fun: Callable, x0: np.ndarray, lower=None, upper=None, l
             r_new, J_new, _ = fun(x_new)
             w_new, cost_new = robust_weights(r_new, group, loss, f_scale)
             predicted = -(g @ dx) - 0.5 * np.sum((Jw @ dx) ** 2)
+            if undamped:
+                undamped = False
+                if cost_new < cost and predicted > 0 and (cost - cost_new) > 0.25 * predicted:
+                    break
+                continue
             if cost_new < cost or (cost_new <= cost and predicted <= 0):
                 break
             if predicted <= 1e-14 * cost or cost <= 1e-28 * cost0:
@@ -117,6 +127,7 @@ def levenberg_marquardt(fun: Callable, x0: np.ndarray, lower=None, upper=None, l
                 return SolveResult(x, cost, r, J, -1, "no step reduces the cost (local minimum or bad Jacobian)",
                                    it, history, w)
         gain = (cost - cost_new) / predicted if predicted > 0 else 0.0
+        good_model = gain > 0.75
         lam = lam * max(1.0 / 3.0, 1.0 - (2.0 * gain - 1.0) ** 3) if gain > 0 else lam * 2.0
         step = float(np.linalg.norm(D * dx))
         reduction = cost - cost_new
