@@ -131,8 +131,11 @@ def scene_data(problem, result, params_before) -> dict:
             aux = _aux(param_sets[s], res)
             meas, pred, rows, beams = [], [], [], []
             for k in range(res.n_terms):
-                i = int(res.samples[k])
-                M = states[s][i].pose(res.frame) if hasattr(res, "frame") else None
+                term = res.term_samples(k)
+                i = int(term[0])
+                # a term over several samples (a sphere artefact's hits) has no single point to draw
+                one = len(term) == 1 and hasattr(res, "frame")
+                M = states[s][i].pose(res.frame) if one else None
                 rows.append(res.evaluate(k, states[s], aux).r.tolist())
                 if M is not None:
                     m, p = _points(res, k, M, aux)

@@ -65,6 +65,9 @@ def simulate_measurements(problem: Problem, truth: ParameterSet, rng: np.random.
                     res.measurements = np.array(res_rows)
             else:
                 for k in range(res.n_terms):
+                    if len(res.term_samples(k)) != 1:
+                        raise RobocalError(f"simulation: '{res.name}' has terms over several samples; simulate "
+                                           "its acquisition with its own model (e.g. robocal.mechanisms.pcmm)")
                     i = int(res.samples[k])
                     problem.values[i] = _project(res, k, ms, problem.values[i], aux, rng, max_iterations)
     finally:
