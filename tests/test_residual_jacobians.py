@@ -6,6 +6,7 @@ import pytest
 from robocal import load_example
 from robocal.parameters import robot_parameters
 from robocal.problem import Problem
+from robocal.testing import assert_problem_jacobian
 from robocal.residuals import (BallBarResidual, CylinderResidual, LaserLineResidual, PlaneResidual,
                                PointResidual, PoseResidual, RigidPointsResidual, SphereResidual)
 
@@ -26,21 +27,6 @@ def _problem(residual_factory, rng):
             p.vary = True
             p.value += rng.normal(0, 0.01)
     return problem
-
-
-def _fd_check(problem, h=1e-6):
-    ev = problem.evaluate()
-    x0 = problem.params.free_values()
-    Jfd = np.zeros_like(ev.J)
-    for j in range(len(x0)):
-        for sgn in (1, -1):
-            x = x0.copy()
-            x[j] += sgn * h
-            problem.params.set_free_values(x)
-            Jfd[:, j] += sgn * problem.evaluate(jacobian=False).r / (2 * h)
-    problem.params.set_free_values(x0)
-    scale = max(1.0, np.abs(ev.J).max())
-    return np.abs(ev.J - Jfd).max() / scale
 
 
 def _q(rng, n):
@@ -69,7 +55,7 @@ def test_residual_jacobian_matches_finite_differences(kind):
     rng = np.random.default_rng(7)
     problem = _problem(FACTORIES[kind], rng)
     # central differences with h=1e-6: truncation ~h^2 * third derivative, rounding ~eps/h
-    assert _fd_check(problem) < 1e-7
+    assert_problem_jacobian(problem, h=1e-6, tol=1e-7)
 
 
 def test_frame_parameter_moves_joints_hanging_below_it():
@@ -86,7 +72,7 @@ def test_frame_parameter_moves_joints_hanging_below_it():
     values[:, 0] = 0.2   # torso lift (m)
     res = PointResidual("tip", "gripper_left_fingertip_link", np.arange(3), rng.normal(size=(3, 3)))
     problem = Problem(robot, params, joints, values, [res])
-    assert _fd_check(problem) < 1e-7
+    assert_problem_jacobian(problem, h=1e-6, tol=1e-7)
 
 
 def test_joint_compliance_parameters_match_finite_differences():
@@ -101,4 +87,4 @@ def test_joint_compliance_parameters_match_finite_differences():
     res = PoseResidual("pose", "tool0", np.arange(4), np.hstack([rng.normal(size=(4, 3)), _q(rng, 4)]))
     problem = Problem(robot, params, joints, values, [res])
     assert any(abs(problem.states()[0].tau).max() > 1.0 for _ in [0])   # UR5 carries real gravity load
-    assert _fd_check(problem) < 1e-7
+    assert_problem_jacobian(problem, h=1e-6, tol=1e-7)

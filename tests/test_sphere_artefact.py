@@ -6,6 +6,7 @@ from robocal import load_example
 from robocal.errors import InputError
 from robocal.parameters import robot_parameters
 from robocal.problem import Problem
+from robocal.testing import assert_problem_jacobian
 from robocal.residuals.sphere_artefact import SphereArtefactResidual, artefact_rows
 
 
@@ -25,26 +26,12 @@ def _arm_problem(use="both", tip_unknown=False):
     return Problem(robot, params, joints, values, [res]), res
 
 
-def _fd_error(problem, h=1e-6):
-    ev = problem.evaluate()
-    x0 = problem.params.free_values()
-    J = np.zeros_like(ev.J)
-    for j in range(len(x0)):
-        for sgn in (1, -1):
-            x = x0.copy()
-            x[j] += sgn * h
-            problem.params.set_free_values(x)
-            J[:, j] += sgn * problem.evaluate(jacobian=False).r / (2 * h)
-    problem.params.set_free_values(x0)
-    return np.abs(ev.J - J).max() / np.abs(ev.J).max()
-
-
 def test_residual_jacobian_on_a_serial_arm_matches_finite_differences():
     problem, res = _arm_problem(tip_unknown=True)
     assert res.n_terms == 2 and res.dim == 6 and len(res.term_samples(1)) == 15
     # rows are scaled by 1/sigma = 1e6; central differences with h = 1e-6: truncation ~h^2, the fits
     # converge to 1e-15 relative, so the relative error floor is ~1e-8
-    assert _fd_error(problem) < 1e-6
+    assert_problem_jacobian(problem, h=1e-6, tol=1e-6)
     assert "artefact.tip_radius" in problem.params.free_names
 
 
