@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import json
 import logging
 import sys
 from pathlib import Path
@@ -33,10 +34,14 @@ def cmd_calibrate(args) -> int:
     result = calibrate(p, setup.options, progress=None if args.quiet else _progress,
                        source=", ".join(str(t.path) for t in setup.tables.values()))
     extra = {"scene.json": scene_bytes(setup, result, before)}
+    iso = _iso9283(args.config, result) if "iso9283" in (setup.raw or {}) else None
+    if iso is not None:
+        extra["iso9283.json"] = (json.dumps(iso, indent=2) + "\n").encode()
     if not args.no_report and (setup.raw.get("output") or {}).get("report", True):
         try:
             from .report import report_bytes
-            extra["report.html"] = report_bytes(result, extra["scene.json"], meshes=False)  # 1.5 MB, not 10
+            extra["report.html"] = report_bytes(result, extra["scene.json"], meshes=False,  # 1.5 MB, not 10
+                                                iso9283=iso)
         except ImportError as exc:   # matplotlib / meshcat come with the [viz] extra
             print(f"robocal: no report.html ({exc.name} is not installed: pip install 'robocal[viz]')",
                   file=sys.stderr)
@@ -48,6 +53,18 @@ def cmd_calibrate(args) -> int:
               f"(--allow-failed writes it anyway)" if "urdf" not in files else "", file=sys.stderr)
         return 3
     return 0
+
+
+def _iso9283(config, result) -> dict:
+    """ISO 9283 figures of the config's `iso9283:` rows with the parameters just fitted."""
+    import tempfile
+
+    from .iso9283_cli import iso9283_from_config
+
+    with tempfile.TemporaryDirectory() as tmp:
+        fitted = Path(tmp) / "result.json"
+        fitted.write_text(result.to_json())
+        return iso9283_from_config(config, parameters=fitted).to_dict()
 
 
 def cmd_simulate(args) -> int:

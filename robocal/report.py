@@ -76,8 +76,30 @@ def report_plots(result: dict, scene: dict | None) -> list[tuple[str, str]]:
 
 
 # ---- HTML ---------------------------------------------------------------------------------------
-def report_html(result: dict, scene: dict | None = None, meshes: bool = True, title: str = "robocal calibration report") -> str:
-    """The report page. `result` is result.json's content, `scene` scene.json's (None: no plots of points)."""
+def iso9283_section(iso: dict) -> list[str]:
+    """ISO 9283 pose (and distance) characteristics of the nominal and the calibrated model, in mm / mrad."""
+    rows, dist = [], []
+    for model in ("nominal", "calibrated"):
+        for p in iso.get(model, {}).get("poses", []):
+            rows.append([model, p["pose"], p["visits"], _fmt(1e3 * p["AP"]),
+                         ", ".join(_fmt(1e3 * p[f"AP_{k}"], "+.3g") for k in "xyz"),
+                         ", ".join(_fmt(1e3 * p[f"AP_{k}"], "+.3g") for k in "abc"),
+                         _fmt(1e3 * p["RP"]), ", ".join(_fmt(1e3 * p[f"RP_{k}"], ".3g") for k in "abc")])
+        for d in iso.get(model, {}).get("distances", []):
+            dist.append([model, " - ".join(d["poses"]), d["cycles"], _fmt(1e3 * d["AD"]), _fmt(1e3 * d["RD"])])
+    parts = ["<h2>ISO 9283 pose characteristics (mm, mrad)</h2>",
+             f"<p>Frame {html.escape(str(iso.get('frame')))}; the calibrated figures are what the same robot "
+             "reaches when its controller uses the calibrated model (first order at the commanded joints).</p>",
+             _table(["model", "pose", "visits", "AP", "AP x, y, z", "AP a, b, c", "RP", "RP a, b, c"], rows, "iso9283")]
+    if dist:
+        parts.append(_table(["model", "poses", "cycles", "AD", "RD"], dist, "iso9283-distance"))
+    return parts
+
+
+def report_html(result: dict, scene: dict | None = None, meshes: bool = True, title: str = "robocal calibration report",
+                iso9283: dict | None = None) -> str:
+    """The report page. `result` is result.json's content, `scene` scene.json's (None: no plots of points),
+    `iso9283` iso9283.json's (None: no ISO section)."""
     ident = result.get("identifiability", {})
     summary = [["status", result.get("status")], ["solver message", result.get("message")],
                ["iterations", result.get("iterations")], ["residual rows", result.get("rows")],
@@ -106,6 +128,8 @@ def report_html(result: dict, scene: dict | None = None, meshes: bool = True, ti
              + "".join(f"<li>{html.escape(s)}</li>" for s in ident.get("statements", [])) + "</ul>",
              "<h2>Parameters (lengths in mm, angles in mrad)</h2>",
              _table(["parameter", "unit", "value", "standard error", "status"], params, "parameters")]
+    if iso9283:
+        parts += iso9283_section(iso9283)
     figures = report_plots(result, scene)
     if figures:
         parts.append("<h2>Plots</h2>")
@@ -128,7 +152,7 @@ def report_html(result: dict, scene: dict | None = None, meshes: bool = True, ti
             f"<style>{style}</style></head><body>{''.join(parts)}</body></html>")
 
 
-def report_bytes(result, scene=None, meshes: bool = True) -> bytes:
+def report_bytes(result, scene=None, meshes: bool = True, iso9283: dict | None = None) -> bytes:
     """report.html content for `write_results(..., extra=...)`.
 
     result: a CalibrationResult or its dict; scene: scene.json bytes or dict (robocal.scene_data) or None.
@@ -137,7 +161,7 @@ def report_bytes(result, scene=None, meshes: bool = True) -> bytes:
         result = json.loads(result.to_json())
     if isinstance(scene, (bytes, bytearray)):
         scene = json.loads(scene)
-    return report_html(result, scene, meshes=meshes).encode("utf-8")
+    return report_html(result, scene, meshes=meshes, iso9283=iso9283).encode("utf-8")
 
 
 def read_result(folder: str | Path) -> dict:
@@ -160,6 +184,8 @@ def write_report(folder: str | Path, out: str | Path | None = None, meshes: bool
     scene = read_scene(folder) if (folder / "scene.json").is_file() else None
     if scene is None:
         log.warning("%s has no scene.json: the report has no 3D scene and no per-sample plots", folder)
+    iso_path = folder / "iso9283.json"
+    iso = json.loads(iso_path.read_text(encoding="utf-8")) if iso_path.is_file() else None
     path = Path(out) if out else folder / "report.html"
-    path.write_bytes(report_bytes(result, scene, meshes=meshes))
+    path.write_bytes(report_bytes(result, scene, meshes=meshes, iso9283=iso))
     return path
