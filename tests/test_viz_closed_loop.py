@@ -1,0 +1,37 @@
+"""A closed-loop machine's result builds a scene whose every sample has its loops closed."""
+import json
+
+import numpy as np
+import pinocchio as pin
+
+from robocal.calibrate import calibrate
+from robocal.problem import Problem
+from robocal.residuals import PoseResidual
+from robocal.scene_data import scene_bytes
+from robocal.simulate import perturb, simulate_measurements
+from robocal.viz import SceneView
+from test_loop_sensitivities import stewart_problem
+
+
+def test_stewart_result_scene_has_closed_loops_and_exports():
+    rng = np.random.default_rng(0)
+    robot, ps, act, lengths = stewart_problem(rng, 16)   # 96 rows for the 90 requested parameters
+    for p in ps:
+        p.value = 0.0
+    n = len(lengths)
+    problem = Problem(robot, ps, act, lengths, [PoseResidual("tracker", "tool", np.arange(n),
+                                                             np.tile([0, 0, 0, 0, 0, 0, 1.0], (n, 1)),
+                                                             sigma=(1e-5, 1e-5))])
+    simulate_measurements(problem, perturb(problem.params, rng, 1e-3, 1e-3), rng)
+    before = problem.params.copy()
+    result = calibrate(problem)
+    scene = json.loads(scene_bytes(problem, result, before))
+    assert len(scene["values"]) == n
+    # every closure's two anchors coincide in the recorded link poses (the loops are drawn closed)
+    states = problem.states()
+    for i in range(n):
+        s = states[i]
+        for c in robot.loops.closures:
+            assert np.linalg.norm(s.pose(c.frame1).translation - s.pose(c.frame2).translation) < 1e-9
+    html = SceneView(scene, meshes=False).static_html()
+    assert "<html" in html.lower() and len(html) > 100_000
