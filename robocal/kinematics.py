@@ -34,7 +34,7 @@ class ModelState:
         self.data = self.model.createData()
         free = params.free_names
         self.n_free = len(free)
-        col = {n: i for i, n in enumerate(free)}
+        col = params.column_names()   # followers of tied parameters share their leader's column
         nj = nominal.njoints - 1
         # Maps from "twist of a placement" / "joint velocity" to the free-parameter vector.
         self.P_joint = np.zeros((6 * nj, self.n_free))
@@ -66,7 +66,7 @@ class ModelState:
                 k, iv = read_v[p.target]
                 self.offsets[k] = p.value
                 if p.name in col:
-                    self.P_offset[iv, col[p.name]] = 1.0
+                    self.P_offset[iv, col[p.name]] += 1.0
         induced = []   # joints that hang below a calibrated frame: (joint id, moved frame, its block)
         # frames first: a joint below a calibrated frame gets that change before its own placement error
         for kind, target in sorted(groups, key=lambda g: g[0] != "frame_placement"):
@@ -76,7 +76,7 @@ class ModelState:
             for c, comp in enumerate(COMPONENTS):
                 j = col.get(f"{target}.{comp}")
                 if j is not None:
-                    block[:, j] = Jr[:, c]
+                    block[:, j] += Jr[:, c]
             if kind == "joint_placement":
                 jid = robot.joint_id(target)
                 self.model.jointPlacements[jid] = self.model.jointPlacements[jid] * _exp6(delta)

@@ -40,6 +40,7 @@ class Parameter:
     prior_sigma: float | None = None
     prior_mean: float = 0.0
     unit: str = ""
+    tied_to: str | None = None   # follower of another parameter: same value, its effect added to the leader's
     # written by a fit
     stderr: float | None = None
     identifiable: bool | None = None
@@ -52,6 +53,8 @@ class Parameter:
             d["confounded_with"] = [[n, c] for n, c in self.confounded_with]
         if self.prior_sigma is not None:
             d["prior"] = {"mean": self.prior_mean, "sigma": self.prior_sigma}
+        if self.tied_to:
+            d["tied_to"] = self.tied_to
         if np.isfinite(self.min) or np.isfinite(self.max):
             d["bounds"] = [self.min if np.isfinite(self.min) else None, self.max if np.isfinite(self.max) else None]
         return d
@@ -122,6 +125,27 @@ class ParameterSet:
         items = sorted(self._params.items(), key=lambda kv: rank(kv[1]))
         self._params = dict(items)
 
+    def tie(self, follower: str, leader: str) -> "ParameterSet":
+        """Make `follower` take `leader`'s value (e.g. two joints that coincide in a 3-3 platform).
+
+        The follower is no longer free; wherever it acts, its effect counts towards the leader's column.
+        """
+        f, lead = self[follower], self[leader]
+        if lead.tied_to is not None:
+            raise InputError(f"'{leader}' is itself tied to '{lead.tied_to}'; tie to that instead", field=leader)
+        if f.unit != lead.unit:
+            raise InputError(f"cannot tie '{follower}' ({f.unit}) to '{leader}' ({lead.unit})", field=follower)
+        f.tied_to, f.value = leader, lead.value
+        return self
+
+    def column_names(self) -> dict[str, int]:
+        """Solver column of every parameter that has one: the free ones, and followers of free leaders."""
+        col = {n: i for i, n in enumerate(self.free_names)}
+        for p in self._params.values():
+            if p.tied_to is not None and p.tied_to in col:
+                col[p.name] = col[p.tied_to]
+        return col
+
     def set_values(self, values: dict[str, float]) -> "ParameterSet":
         for n, v in values.items():
             self[n].value = float(v)
@@ -133,17 +157,20 @@ class ParameterSet:
     # ---- solver vector ----------------------------------------------------------------
     @property
     def free_names(self) -> list[str]:
-        return [n for n, p in self._params.items() if p.vary]
+        return [n for n, p in self._params.items() if p.vary and p.tied_to is None]
 
     def free_values(self) -> np.ndarray:
-        return np.array([p.value for p in self if p.vary], dtype=float)
+        return np.array([p.value for p in self if p.vary and p.tied_to is None], dtype=float)
 
     def set_free_values(self, x: np.ndarray) -> None:
-        for p, v in zip((p for p in self if p.vary), x):
+        for p, v in zip((p for p in self if p.vary and p.tied_to is None), x):
             p.value = float(v)
+        for p in self._params.values():
+            if p.tied_to is not None:
+                p.value = self._params[p.tied_to].value
 
     def free_bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        free = [p for p in self if p.vary]
+        free = [p for p in self if p.vary and p.tied_to is None]
         return np.array([p.min for p in free]), np.array([p.max for p in free])
 
     # ---- grouped access used by the kinematics layer --------------------------------------

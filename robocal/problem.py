@@ -86,7 +86,7 @@ class Problem:
         self.blocks = self._layout()  # priors may have been switched on or off
         states = self.states()
         free = self.params.free_names
-        col = {n: i for i, n in enumerate(free)}
+        col = self.params.column_names()
         n_free = len(free)
         rs, raws, Js, groups = [], [], [], []
         gid = 0

@@ -84,3 +84,18 @@ def test_too_few_measurements_is_an_error():
     problem = ur5_pose_problem(rng, 5)   # 30 rows for 54 free parameters
     with pytest.raises(IdentifiabilityError, match="30 measurement rows cannot determine 54"):
         calibrate(problem, source="poses.csv")
+
+
+def test_tied_truth_is_recovered_with_the_tie():
+    from robocal.identifiability import select_base_parameters
+    rng = np.random.default_rng(8)
+    problem = ur5_pose_problem(rng, 40, TINY)
+    problem.params.tie("wrist_3_joint.offset", "wrist_2_joint.offset")
+    names = identifiable_names(problem)
+    truth = perturb(problem.params, rng, 2e-3, np.radians(0.2), patterns=names)
+    truth.set_free_values(truth.free_values())            # the true follower equals its leader
+    simulate_measurements(problem, truth, rng)
+    result = calibrate(problem)
+    assert result.success and "wrist_3_joint.offset" not in result.estimated
+    assert max(abs(problem.params[n].value - truth[n].value) for n in names) < 1e-9
+    assert problem.params["wrist_3_joint.offset"].value == problem.params["wrist_2_joint.offset"].value

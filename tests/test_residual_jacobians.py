@@ -88,3 +88,21 @@ def test_joint_compliance_parameters_match_finite_differences():
     problem = Problem(robot, params, joints, values, [res])
     assert any(abs(problem.states()[0].tau).max() > 1.0 for _ in [0])   # UR5 carries real gravity load
     assert_problem_jacobian(problem, h=1e-6, tol=1e-7)
+
+
+def test_tied_parameters_add_their_effect_to_the_leader_column():
+    """Ties (a 3-3 platform's coinciding joints): the follower moves with the leader, FD-consistent."""
+    rng = np.random.default_rng(5)
+    robot = load_example("ur5")
+    joints = robot.joint_names
+    params = robot_parameters(robot, joints, "full", frames={"tool0": True})
+    params.tie("wrist_2_joint.offset", "wrist_1_joint.offset").tie("tool0.tx", "wrist_3_joint.tx")
+    for p in params:
+        p.value = rng.normal(0, 0.01)
+    params.set_free_values(params.free_values())          # followers take their leaders' values
+    assert params["wrist_2_joint.offset"].value == params["wrist_1_joint.offset"].value
+    assert "wrist_2_joint.offset" not in params.free_names
+    values = rng.uniform(-2, 2, (4, len(joints)))
+    res = PoseResidual("pose", "tool0", np.arange(4), np.hstack([rng.normal(size=(4, 3)), _q(rng, 4)]))
+    problem = Problem(robot, params, joints, values, [res])
+    assert_problem_jacobian(problem, h=1e-6, tol=1e-7)
