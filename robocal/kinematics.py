@@ -34,13 +34,13 @@ class ModelState:
         self.data = self.model.createData()
         free = params.free_names
         self.n_free = len(free)
-        col = params.column_names()   # followers of tied parameters share their leader's column
+        col = params.column_map()   # parameter -> [(free column, coefficient)]; ties act on their leaders
         nj = nominal.njoints - 1
         # Maps from "twist of a placement" / "joint velocity" to the free-parameter vector.
         self.P_joint = np.zeros((6 * nj, self.n_free))
         self.offsets = np.zeros(len(self.joint_names))
         self.compliance = np.zeros(len(self.joint_names))
-        self.compliance_cols: list[tuple[int, int, int]] = []   # (read index, v index, free column)
+        self.compliance_cols: list[tuple] = []   # (read index, v index, free column, coefficient)
         self.P_offset = np.zeros((self.model.nv, self.n_free))
         self.P_frame: dict[int, np.ndarray] = {}
         self.P_base = np.zeros((6, self.n_free))
@@ -58,15 +58,15 @@ class ModelState:
                     raise ValueError(f"compliance parameter {p.name}: joint '{p.target}' is not read by the data")
                 k, iv = read_v[p.target]
                 self.compliance[k] = p.value
-                if p.name in col:
-                    self.compliance_cols.append((k, iv, col[p.name]))
+                for c, w in col.get(p.name, []):
+                    self.compliance_cols.append((k, iv, c, w))
             elif p.kind == "joint_offset":
                 if p.target not in read_v:
                     raise ValueError(f"offset parameter {p.name}: joint '{p.target}' is not read by the data")
                 k, iv = read_v[p.target]
                 self.offsets[k] = p.value
-                if p.name in col:
-                    self.P_offset[iv, col[p.name]] += 1.0
+                for c, w in col.get(p.name, []):
+                    self.P_offset[iv, c] += w
         induced = []   # joints that hang below a calibrated frame: (joint id, moved frame, its block)
         # frames first: a joint below a calibrated frame gets that change before its own placement error
         for kind, target in sorted(groups, key=lambda g: g[0] != "frame_placement"):
@@ -74,9 +74,8 @@ class ModelState:
             Jr = pin.Jexp6(pin.Motion(delta))
             block = np.zeros((6, self.n_free))
             for c, comp in enumerate(COMPONENTS):
-                j = col.get(f"{target}.{comp}")
-                if j is not None:
-                    block[:, j] += Jr[:, c]
+                for j, w in col.get(f"{target}.{comp}", []):
+                    block[:, j] += w * Jr[:, c]
             if kind == "joint_placement":
                 jid = robot.joint_id(target)
                 self.model.jointPlacements[jid] = self.model.jointPlacements[jid] * _exp6(delta)
@@ -203,8 +202,8 @@ class SampleState:
             fid = frame if isinstance(frame, int) else ms.robot.frame_id(frame)
             self._activate()
             J = hit[2] @ ms.P_offset
-            for k, iv, c in ms.compliance_cols:          # d q_link / d c = -tau_g
-                J[:, c] -= hit[2][:, iv] * self.tau[k]
+            for k, iv, c, w in ms.compliance_cols:          # d q_link / d c = -tau_g
+                J[:, c] -= w * hit[2][:, iv] * self.tau[k]
             if ms.has_joint_params:
                 reg = pin.computeFrameKinematicRegressor(ms.model, ms.data, fid, LOCAL)
                 J += reg @ ms.P_joint

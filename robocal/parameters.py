@@ -40,7 +40,8 @@ class Parameter:
     prior_sigma: float | None = None
     prior_mean: float = 0.0
     unit: str = ""
-    tied_to: str | None = None   # follower of another parameter: same value, its effect added to the leader's
+    # follower of other parameters: value = sum(coefficient * leader value); its effect adds to their columns
+    tied_to: dict[str, float] | None = None
     # written by a fit
     stderr: float | None = None
     identifiable: bool | None = None
@@ -54,7 +55,7 @@ class Parameter:
         if self.prior_sigma is not None:
             d["prior"] = {"mean": self.prior_mean, "sigma": self.prior_sigma}
         if self.tied_to:
-            d["tied_to"] = self.tied_to
+            d["tied_to"] = dict(self.tied_to)
         if np.isfinite(self.min) or np.isfinite(self.max):
             d["bounds"] = [self.min if np.isfinite(self.min) else None, self.max if np.isfinite(self.max) else None]
         return d
@@ -125,26 +126,40 @@ class ParameterSet:
         items = sorted(self._params.items(), key=lambda kv: rank(kv[1]))
         self._params = dict(items)
 
-    def tie(self, follower: str, leader: str) -> "ParameterSet":
-        """Make `follower` take `leader`'s value (e.g. two joints that coincide in a 3-3 platform).
+    def tie(self, follower: str, leader: str | dict[str, float]) -> "ParameterSet":
+        """Make `follower` a fixed linear combination of leaders: value = sum(coefficient * leader value).
 
-        The follower is no longer free; wherever it acts, its effect counts towards the leader's column.
+        `leader` is a name (coefficient 1: two joints that coincide, frames with the same orientation) or
+        {name: coefficient} (the same point seen in differently oriented frames). The follower is no longer
+        free; wherever it acts, its effect counts towards the leaders' columns with those coefficients.
         """
-        f, lead = self[follower], self[leader]
-        if lead.tied_to is not None:
-            raise InputError(f"'{leader}' is itself tied to '{lead.tied_to}'; tie to that instead", field=leader)
-        if f.unit != lead.unit:
-            raise InputError(f"cannot tie '{follower}' ({f.unit}) to '{leader}' ({lead.unit})", field=follower)
-        f.tied_to, f.value = leader, lead.value
+        f = self[follower]
+        leaders = {leader: 1.0} if isinstance(leader, str) else {k: float(v) for k, v in leader.items()}
+        for name in leaders:
+            if self[name].tied_to is not None:
+                raise InputError(f"'{name}' is itself tied; tie '{follower}' to its leaders instead", field=name)
+            if self[name].unit != f.unit:
+                raise InputError(f"cannot tie '{follower}' ({f.unit}) to '{name}' ({self[name].unit})", field=follower)
+        f.tied_to = leaders
+        self._sync_ties()
         return self
 
-    def column_names(self) -> dict[str, int]:
-        """Solver column of every parameter that has one: the free ones, and followers of free leaders."""
-        col = {n: i for i, n in enumerate(self.free_names)}
+    def _sync_ties(self) -> None:
         for p in self._params.values():
-            if p.tied_to is not None and p.tied_to in col:
-                col[p.name] = col[p.tied_to]
-        return col
+            if p.tied_to is not None:
+                p.value = sum(c * self._params[n].value for n, c in p.tied_to.items())
+
+    def column_map(self) -> dict[str, list[tuple[int, float]]]:
+        """Solver columns of every parameter that acts on them, with coefficients: a free parameter acts
+        on its own column (1.0), a follower on its free leaders' columns (their coefficients)."""
+        col = {n: i for i, n in enumerate(self.free_names)}
+        out = {n: [(i, 1.0)] for n, i in col.items()}
+        for p in self._params.values():
+            if p.tied_to is not None:
+                hits = [(col[n], c) for n, c in p.tied_to.items() if n in col]
+                if hits:
+                    out[p.name] = hits
+        return out
 
     def set_values(self, values: dict[str, float]) -> "ParameterSet":
         for n, v in values.items():
@@ -165,9 +180,7 @@ class ParameterSet:
     def set_free_values(self, x: np.ndarray) -> None:
         for p, v in zip((p for p in self if p.vary and p.tied_to is None), x):
             p.value = float(v)
-        for p in self._params.values():
-            if p.tied_to is not None:
-                p.value = self._params[p.tied_to].value
+        self._sync_ties()
 
     def free_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         free = [p for p in self if p.vary and p.tied_to is None]

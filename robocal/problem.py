@@ -86,7 +86,7 @@ class Problem:
         self.blocks = self._layout()  # priors may have been switched on or off
         states = self.states()
         free = self.params.free_names
-        col = self.params.column_names()
+        col = self.params.column_map()
         n_free = len(free)
         rs, raws, Js, groups = [], [], [], []
         gid = 0
@@ -95,7 +95,7 @@ class Problem:
             keep = scale != 0
             aux_names = [p.name for p in res.aux_parameters()]
             aux = np.array([self.params[n].value for n in aux_names])
-            aux_cols = [(j, col[n]) for j, n in enumerate(aux_names) if n in col]
+            aux_cols = [(j, c, w) for j, n in enumerate(aux_names) for c, w in col.get(n, [])]
             for k in range(res.n_terms):
                 t = res.evaluate(k, states, aux)
                 raws.append(t.r[keep])
@@ -106,8 +106,8 @@ class Problem:
                     Jt = np.zeros((res.dim, n_free))
                     for i, frame, D in t.frames:
                         Jt += D @ states[i].frame_parameter_jacobian(frame)
-                    for j, c in aux_cols:
-                        Jt[:, c] += t.aux[:, j]
+                    for j, c, w in aux_cols:
+                        Jt[:, c] += w * t.aux[:, j]
                     Js.append((Jt * scale[:, None])[keep])
         pr, pJ, _ = prior_rows(self.params)
         if len(pr):
