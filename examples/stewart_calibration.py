@@ -30,7 +30,7 @@ def acquire(tips):
 tips = sc.random_tips(12, rng)
 abc, s1 = acquire(tips)
 sets = {"mode 1 (poses)": (sm.pose_residuals("pose", robot, np.arange(12), np.column_stack([tips, abc]),
-                                             [1, 1, 1, 1000, 1000, 1000], tool, (1e-6, 1e-6)), s1)}
+                                             [1, 1, 1, 1, 1, 1], tool, (1e-6, 1e-6)), s1)}
 blocks, values = [], []
 for k, c in enumerate([(0, 0, 0.22), (0.08, -0.05, 0.22), (-0.06, 0.07, 0.24)]):
     length = rng.uniform(0.09, 0.11, 30)

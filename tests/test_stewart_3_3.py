@@ -18,7 +18,7 @@ from robocal.problem import Problem
 
 URDF = Path(__file__).resolve().parents[1] / "urdf" / "stewart_3_3.urdf"
 TOOL = sm.Tool(0.2, 0.003)
-FULL = [1, 1, 1, 1000, 1000, 1000]
+FULL = [1, 1, 1, 1, 1, 1]   # SI: sigma 1 um and 1 urad make 1 mrad count as 1 mm (the spec's u = 1000 in mm)
 BASE_PAIRS = [(1, 2), (3, 4), (5, 6)]         # (leader, follower): legs (B1,P1),(B1,P2),(B2,P2),(B2,P3),(B3,P3),(B3,P1)
 PLATFORM_PAIRS = [(2, 3), (4, 5), (6, 1)]
 

@@ -110,3 +110,61 @@ def test_point_only_data_cannot_see_the_platform_joints_rotating_about_the_tip(r
     assert null_dim(problem) >= 3
     words = sc.explain(problem.evaluate().J, robot, params, TOOL)
     assert any("rotating the platform joints T about the tool tip" in w for w in words)
+
+
+def test_variant_h_one_ball_bar_with_unknown_centre_needs_one_full_pose(robot):
+    """Spec test 12: one DBB location with unknown centre and offset, T fixed (24 + 4 = 28 unknowns):
+    rank 22 alone, 28 once a single full pose is added."""
+    rng = np.random.default_rng(12)
+    truth = truth_params(rng, fix_t=True)
+    geo = sc.geometry(robot, truth)
+    c, off, n = np.array([0.0, 0.0, 0.22]), 0.0123, 30
+    length = rng.uniform(0.09, 0.11, n)
+    tips_bar = sc.sphere_tips(c, length, n, rng)
+    _, R_bar = sc.random_orientations(n, rng)
+    s_bar = sc.struts(geo, sc.tip_to_platform(tips_bar, R_bar, TOOL))
+    tip1 = sc.random_tips(1, rng)
+    abc1, R1 = sc.random_orientations(1, rng)
+    s1 = sc.struts(geo, sc.tip_to_platform(tip1, R1, TOOL))
+
+    def rank(with_pose):
+        params = at_truth(sc.stewart_parameters(fix_platform_joints=True), truth)
+        blocks = [sm.ball_bar_residual("dbb", np.arange(n), length - off, c, TOOL, centre_unknown=True)]
+        values = s_bar
+        if with_pose:
+            blocks += sm.pose_residuals("pose", robot, [n], np.column_stack([tip1, abc1]),
+                                        [1, 1, 1, 1, 1, 1], TOOL, (1e-6, 1e-6))
+            values = np.vstack([s_bar, s1])
+        problem = Problem(robot, params, sc.actuated(robot), values, blocks)
+        for name, v in (("dbb.centre.x", c[0]), ("dbb.centre.y", c[1]), ("dbb.centre.z", c[2]), ("dbb.offset", off)):
+            params[name].value = v                       # the linearisation at the true set-up as well
+        assert len(params.free_names) == 28
+        return 28 - null_dim(problem)
+
+    assert rank(False) == 22
+    assert rank(True) == 28
+
+
+def test_three_ball_bars_and_tilt_only_poses_leave_only_the_spin(robot):
+    """Spec test 9, second half: 3 DBB locations + 10 poses measuring only A and B (u = 0,0,0,1,1,0),
+    all 42 parameters free: one null direction remains, the spin of T about the tool axis."""
+    rng = np.random.default_rng(19)
+    truth = truth_params(rng)
+    blocks, s = _contacts(robot, truth, rng, ball_bar_locations=3, per_bar=30)
+    keep = [b for b in blocks if b.name.startswith("dbb")]
+    idx = np.concatenate([b.samples for b in keep])
+    remap = {int(i): k for k, i in enumerate(idx)}
+    for b in keep:
+        b.samples = np.array([remap[int(i)] for i in b.samples])
+    n_bar = len(idx)
+    tips = sc.random_tips(10, rng)
+    abc, R = sc.random_orientations(10, rng)
+    s_tilt = sc.struts(sc.geometry(robot, truth), sc.tip_to_platform(tips, R, TOOL))
+    keep += sm.pose_residuals("tilt", robot, np.arange(n_bar, n_bar + 10), np.column_stack([tips, abc]),
+                              [0, 0, 0, 1000, 1000, 0], TOOL, (1e-6, 1e-6))
+    params = at_truth(sc.stewart_parameters(), truth)
+    problem = Problem(robot, params, sc.actuated(robot), np.vstack([s[idx], s_tilt]), keep)
+    for b in keep:                                   # the linearisation at the true set-up
+        if b.name.startswith("dbb"):
+            params[f"{b.name}.offset"].value = 0.0123
+    assert null_dim(problem) == 1

@@ -17,7 +17,9 @@ from robocal.stewart_two_stage import calibrate_two_stage
 
 URDF = Path(__file__).resolve().parents[1] / "urdf" / "stewart_6_6.urdf"
 TOOL = sm.Tool(0.2, 0.003)
-FULL = [1, 1, 1, 1000, 1000, 1000]     # spec: angle weight 1000 (1 mrad counts as 1 mm)
+# The spec weighs angles by 1000 so that, with positions in mm, 1 mrad counts as 1 mm. In SI (m, rad) with
+# the same sigma for both, 1 mrad already counts as 1 mm: the weights are 1 (x1000 would make it count as 1 m).
+FULL = [1, 1, 1, 1, 1, 1]
 
 
 @pytest.fixture(scope="module")
@@ -256,3 +258,41 @@ def test_two_stage_solve_recovers_from_300_mm_initial_errors(robot):
     first, final = calibrate_two_stage(problem, np.arange(12), rows, TOOL)
     assert first.selection.rank == 42
     assert robot_error(params, truth) < 1e-10
+
+
+def test_patent_newton_converges_quadratically_and_agrees_with_lm(robot):
+    """Spec test 5: the patent's Newton-Raphson (Eqs. 5-8) on test 4's set-up (T fixed, 24 unknowns) with
+    6 poses and e = 1e-3 mm: converges quadratically in at most 5 iterations, and agrees with LM to 1e-8 mm."""
+    from robocal.newton import patent_newton
+    rng = np.random.default_rng(5)
+    # the spec's run starts at F = 4e-2 mm^2 over 36 rows (~0.03 mm RMS): Newton's quadratic basin. From
+    # 1 mm errors the second-order term dominates this weak design's smallest directions and plain Newton
+    # overshoots (LM, the default solver, handles that start: test 4).
+    truth = truth_params(rng, sigma=5e-5, fix_t=True)
+    rows, s = pose_data(robot, truth, 6, rng)
+
+    def problem():
+        params = sc.stewart_parameters(fix_platform_joints=True)
+        for p in truth:
+            if not p.vary:                    # T is known (measured on a CMM), the rest starts at nominal
+                params[p.name].value = p.value
+        return Problem(robot, params, sc.actuated(robot), s,
+                       sm.pose_residuals("pose", robot, np.arange(6), rows, FULL, TOOL, sigma=(1e-6, 1e-6)))
+
+    newton = problem()
+    res = patent_newton(newton, e=1e-6)
+    assert res.converged and res.iterations <= 5
+    # quadratic convergence: with e_k = sqrt(F_k / F_0), log e_{k+1} / log e_k ~ 2 (1 for a linear rate),
+    # measured on the steps that end well above the rounding floor (the final F: loop-assembly noise)
+    e = np.sqrt(np.array(res.F) / res.F[0])
+    orders = [np.log(e[k + 1]) / np.log(e[k]) for k in range(1, len(e) - 1) if e[k + 1] > 5 * e[-1]]
+    assert len(orders) >= 2 and min(orders) > 1.8
+    lm = problem()
+    calibrate(lm)
+    # both stop at the rounding floor: what is left in the rows (loop assembly closes to 1e-12 m, i.e.
+    # ~1e-6 in sigma units) moves the parameters by at most |J+| |r_floor| each; the spec's 1e-8 mm
+    # (1e-11 m) is of that order for this weak 6-pose design, whose J+ amplifies by ~1e-5 m per unit row
+    ev = newton.evaluate()
+    floor = np.linalg.norm(np.linalg.pinv(ev.J), 2) * np.linalg.norm(ev.r)
+    assert max(abs(newton.params[n].value - lm.params[n].value) for n in lm.params.free_names) < 2 * floor + 1e-11
+    assert robot_error(newton.params, truth) < 2 * floor + 1e-11
