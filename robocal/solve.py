@@ -119,6 +119,9 @@ def levenberg_marquardt(fun: Callable, x0: np.ndarray, lower=None, upper=None, l
                 continue
             if cost_new < cost or (cost_new <= cost and predicted <= 0):
                 break
+            if np.linalg.norm(D * dx) <= xtol * (np.linalg.norm(D * x) + xtol):
+                # a rejected step that is already negligible: the minimum is found to working precision
+                return SolveResult(x, cost, r, J, 3, "step below xtol", it, history, w)
             if predicted <= 1e-14 * cost or cost <= 1e-28 * cost0:
                 # even the model predicts nothing to gain: the fit is exact to rounding (noise-free data)
                 return SolveResult(x, cost, r, J, 4, "cost at the rounding level", it, history, w)
