@@ -79,8 +79,7 @@ class DesignMatrix:
         The rows of a term are contiguous and `Evaluation.group` numbers the terms in residual order,
         then the priors; so each row's sample is known without re-evaluating anything.
         """
-        if predict_measurements:
-            nominal_measurements(problem)
+        unreachable = nominal_measurements(problem) if predict_measurements else set()
         ev = problem.evaluate()
         term_sample = []
         for res in problem.residuals:
@@ -94,7 +93,7 @@ class DesignMatrix:
         is_term = ev.group < len(term_sample)
         row_sample = np.full(len(ev.group), -1)
         row_sample[is_term] = term_sample[ev.group[is_term]]
-        labels = np.unique(row_sample[is_term])
+        labels = np.array([s for s in np.unique(row_sample[is_term]) if s not in unreachable], dtype=int)
         units = [np.flatnonzero(row_sample == s) for s in labels]
         return cls.from_rows(ev.J, list(problem.params.free_names), units, np.flatnonzero(~is_term), labels, rtol)
 
@@ -152,14 +151,12 @@ class _NoNoise:
                                np.broadcast_shapes(np.shape(loc), np.shape(scale)) if size is None else size).copy()
 
 
-def nominal_measurements(problem) -> None:
-    """Set every observed residual's measurements to the prediction at the current parameters."""
+def nominal_measurements(problem) -> set[int]:
+    """Set every observed residual's measurements to the prediction at the current parameters, and move
+    every contact-type candidate (plane, sphere, cylinder, laser line) onto its contact on the nominal
+    model. Returns the candidates that cannot reach their contact (to be left out)."""
     from .simulate import simulate_measurements
-    if any(not r.observed for r in problem.residuals):
-        raise InputError("pose selection supports observed measurement types only (pose, point, rigid "
-                         "points, ball bar); contact types need the robot moved onto the contact",
-                         field=next(r.name for r in problem.residuals if not r.observed))
-    simulate_measurements(problem, problem.params, _NoNoise())
+    return simulate_measurements(problem, problem.params, _NoNoise(), skip_unreachable=True)
 
 
 @dataclass

@@ -120,6 +120,7 @@ def plan_from_config(path: str | Path, seed: int | None = None) -> Plan:
 
     problem = _candidate_problem(raw, root, plan, base_dir, joint_names, joint_cols, candidates)
     design = DesignMatrix.from_problem(problem)
+    candidates = problem.values.copy()      # contact candidates now sit on their (nominal) contact
     validation = random_candidates(robot, joint_names, plan.get("validation", 200, types=int), rng, margin)
     G = pose_jacobians(problem, frame, validation)
     xyz = np.array([nominal.sample(v).pose(frame).translation for v in validation])
@@ -171,6 +172,11 @@ def _candidate_problem(raw, root, plan, base_dir, joint_names, joint_cols, candi
         if cls is None:
             raise Cfg(b, f"measurements[{i}]", root.source).error(
                 f"unknown measurement type (known: {', '.join(sorted(REGISTRY))})", "type")
+        if not cls.observed and len(raw2["measurements"]) > 1:
+            # each candidate is moved onto its contact, so a contact block cannot share candidates
+            raise Cfg(b, f"measurements[{i}]", root.source).error(
+                "robocal plan takes a contact block (plane, sphere, cylinder, laser line) as the only "
+                "measurement block; plan mixes from Python (robocal.design)", "type")
         b.pop("csv", None)
         b.pop("where", None)
         if noise is not None:

@@ -45,11 +45,14 @@ def random_configurations(robot, joint_names: list[str], n: int, rng: np.random.
 
 
 def simulate_measurements(problem: Problem, truth: ParameterSet, rng: np.random.Generator,
-                          max_iterations: int = 100) -> None:
+                          max_iterations: int = 100, skip_unreachable: bool = False) -> set[int]:
     """Fill `problem`'s measurements (and, for contact types, its joint readings) from `truth`.
 
-    Contact-type residuals must own their samples (no other residual may use them).
+    Contact-type residuals must own their samples (no other residual may use them). A contact the robot
+    cannot reach from a sample's readings raises, or with skip_unreachable=True leaves that sample as it
+    was; the samples left so are returned.
     """
+    unreachable: set[int] = set()
     saved = problem.params
     problem.params = truth
     try:
@@ -69,9 +72,15 @@ def simulate_measurements(problem: Problem, truth: ParameterSet, rng: np.random.
                         raise RobocalError(f"simulation: '{res.name}' has terms over several samples; simulate "
                                            "its acquisition with its own model (e.g. robocal.mechanisms.pcmm)")
                     i = int(res.samples[k])
-                    problem.values[i] = _project(res, k, ms, problem.values[i], aux, rng, max_iterations)
+                    try:
+                        problem.values[i] = _project(res, k, ms, problem.values[i], aux, rng, max_iterations)
+                    except RobocalError:
+                        if not skip_unreachable:
+                            raise
+                        unreachable.add(i)
     finally:
         problem.params = saved
+    return unreachable
 
 
 def _project(res, k, ms, values, aux, rng, max_iterations, max_step=0.3):
