@@ -379,9 +379,12 @@ class SceneView:
                 node.set_property("visible", False)
 
     def _camera(self) -> None:
+        # meshcat's camera orbits the origin and this meshcat has no command to move its target, so the
+        # scene is shifted to put its centre there (a parallel machine may sit far from the world origin).
+        self.root.set_transform(pin.SE3(np.eye(3), -self.centre).homogeneous)
         # meshcat's camera lives in a y-up frame: (x, y, z)_robot -> (x, z, -y).
-        c, d = self.centre, 0.8 * self.size
-        eye = c + d * np.array([1.0, 0.7, 0.6])
+        d = 0.8 * self.size
+        eye = d * np.array([1.0, 0.7, 0.6])
         self.vis["/Cameras/default/rotated/<object>"].set_property("position", [eye[0], eye[2], -eye[1]])
         # meshcat's floor grid renders misleadingly in a perspective far from it; the axes give the scale
         self.vis["/Grid"].set_property("visible", False)
