@@ -117,7 +117,13 @@ def scene_data(problem, result, params_before) -> dict:
     robot = problem.robot
     links = link_tree(robot)
     measured_frames = [f for f in dict.fromkeys(getattr(r, "frame", None) for r in problem.residuals) if f]
-    frame_names = list(dict.fromkeys([lk["name"] for lk in links] + measured_frames))
+    # closed chains: each closure's two anchor frames, to draw the links reaching them and the joint
+    closures = [{"name": c.name, "frames": [c.frame1, c.frame2],
+                 "links": [robot.model.frames[robot.model.frames[robot.frame_id(f)].parentFrame].name
+                           for f in (c.frame1, c.frame2)]}
+                for c in (robot.loops.closures if robot.loops is not None else [])]
+    anchors = [f for c in closures for f in c["frames"]]
+    frame_names = list(dict.fromkeys([lk["name"] for lk in links] + measured_frames + anchors))
     param_sets = {"before": params_before, "after": problem.params}
     states = {s: LazyStates(ModelState(robot, p, problem.joint_names), problem.values) for s, p in param_sets.items()}
     n = len(problem.values)
@@ -162,7 +168,7 @@ def scene_data(problem, result, params_before) -> dict:
         "format": FORMAT, "version": VERSION, "units": "SI (m, rad)",
         "robot": {"name": robot.name, "urdf_path": str(robot.urdf_path) if robot.urdf_path else None,
                   "package_dirs": list(robot.package_dirs), "links": links,
-                  "closed_chain": robot.loops is not None},
+                  "closed_chain": robot.loops is not None, "closures": closures},
         "joint_names": list(problem.joint_names),
         "values": problem.values.tolist(),
         "frames": frame_names,

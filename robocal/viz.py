@@ -315,6 +315,20 @@ class SceneView:
                 seg = self.root[name][lk["parent"]][f"to_{lk['name']}"]
                 seg.set_object(mg.Cylinder(1.0, radius), mat)
                 seg.set_transform(_segment_transform(np.zeros(3), rel[:3, 3]))
+        # closed chains: each closure's anchors are drawn as a joint with arms from both links' origins
+        # (a Stewart platform's plate appears as the arms from its origin to the strut ends)
+        for c in self.scene["robot"].get("closures", []):
+            for frame, link in zip(c["frames"], c["links"]):
+                if link not in self.links:
+                    continue
+                rel = np.linalg.inv(self.pose(state, 0, link)) @ self.pose(state, 0, frame)
+                node = self.root[name][link][f"closure_{c['name']}_{frame}"]
+                if np.linalg.norm(rel[:3, 3]) > 1e-6:
+                    node.set_object(mg.Cylinder(1.0, 0.6 * radius), mat)
+                    node.set_transform(_segment_transform(np.zeros(3), rel[:3, 3]))
+            self.root[name][c["links"][1]][f"closure_{c['name']}_joint"].set_object(mg.Sphere(1.4 * radius), mat)
+            anchor = np.linalg.inv(self.pose(state, 0, c["links"][1])) @ self.pose(state, 0, c["frames"][1])
+            self.root[name][c["links"][1]][f"closure_{c['name']}_joint"].set_transform(anchor)
 
     def _measurements(self, b: dict) -> None:
         node = self.root["measurements"][b["name"]]

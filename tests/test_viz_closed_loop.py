@@ -33,5 +33,8 @@ def test_stewart_result_scene_has_closed_loops_and_exports():
         s = states[i]
         for c in robot.loops.closures:
             assert np.linalg.norm(s.pose(c.frame1).translation - s.pose(c.frame2).translation) < 1e-9
+    closures = scene["robot"]["closures"]
+    assert len(closures) == 6 and all(c["links"][1] == "platform" for c in closures)
+    assert all(f in scene["frames"] for c in closures for f in c["frames"])   # anchors recorded per sample
     html = SceneView(scene, meshes=False).static_html()
     assert "<html" in html.lower() and len(html) > 100_000
