@@ -53,20 +53,18 @@ class ModelState:
         for p in params:
             if p.kind in ("joint_placement", "frame_placement", "base"):
                 groups[(p.kind, p.target)] = None
-            elif p.kind == "joint_compliance":
+            elif p.kind in ("joint_compliance", "joint_offset"):
                 if p.target not in read_v:
-                    raise ValueError(f"compliance parameter {p.name}: joint '{p.target}' is not read by the data")
+                    raise ValueError(f"{p.kind.split('_')[1]} parameter {p.name}: joint '{p.target}' is not read "
+                                     "by the data")
                 k, iv = read_v[p.target]
-                self.compliance[k] = p.value
-                for c, w in col.get(p.name, []):
-                    self.compliance_cols.append((k, iv, c, w))
-            elif p.kind == "joint_offset":
-                if p.target not in read_v:
-                    raise ValueError(f"offset parameter {p.name}: joint '{p.target}' is not read by the data")
-                k, iv = read_v[p.target]
-                self.offsets[k] = p.value
-                for c, w in col.get(p.name, []):
-                    self.P_offset[iv, c] += w
+                if p.kind == "joint_offset":
+                    self.offsets[k] = p.value
+                    for c, w in col.get(p.name, []):
+                        self.P_offset[iv, c] += w
+                else:
+                    self.compliance[k] = p.value
+                    self.compliance_cols += [(k, iv, c, w) for c, w in col.get(p.name, [])]
         induced = []   # joints that hang below a calibrated frame: (joint id, moved frame, its block)
         # frames first: a joint below a calibrated frame gets that change before its own placement error
         for kind, target in sorted(groups, key=lambda g: g[0] != "frame_placement"):
