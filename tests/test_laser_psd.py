@@ -4,6 +4,7 @@ import pytest
 
 from laser_psd_cases import DELTA_TRUE, MOUNT, TARGET, exact_readings, joints, plans, readings_for, robot, truth
 from robocal.calibrate import calibrate
+from robocal.testing import assert_problem_jacobian
 from robocal.errors import InputError
 from robocal.laser_psd import (LaserMount, beams, calibrate_laser, laser_statements, pairwise_problem,
                                zero_offset_problem)
@@ -44,17 +45,8 @@ def test_pairwise_residual_jacobian_matches_finite_differences():
     problem = pairwise_problem(robot(), joints(), q, MOUNT)
     for j, d in zip(joints(), [0.01, -0.02, 0.015, 0.01, -0.01, 0.02]):
         problem.params[f"{j}.offset"].value = d
-    ev = problem.evaluate()
-    x0, h = problem.params.free_values(), 1e-6
-    Jfd = np.zeros_like(ev.J)
-    for k in range(len(x0)):
-        for sgn in (1, -1):
-            x = x0.copy()
-            x[k] += sgn * h
-            problem.params.set_free_values(x)
-            Jfd[:, k] += sgn * problem.evaluate(jacobian=False).r / (2 * h)
     # central differences, h = 1e-6 rad: truncation ~ h^2 |r'''| and rounding ~ eps |r| / h, both < 1e-7
-    assert np.abs(ev.J - Jfd).max() / np.abs(ev.J).max() < 1e-7
+    assert_problem_jacobian(problem, h=1e-6, tol=1e-7)
 
 
 # ---- noise-free recovery (test 4) -----------------------------------------------------------
