@@ -243,7 +243,7 @@ def load_urdf(path: str | Path, package_dirs: list[str | Path] | None = None) ->
     dirs = [str(p) for p in (package_dirs or [])] + [str(path.parent)]
     robot = Robot(model=model, urdf_path=path, urdf_text=text, package_dirs=dirs,
                   name=tree.get("name", path.stem))
-    from .loops import read_loops  # local import: loops needs Robot
+    from .loops_urdf import read_loops  # local import: loops needs Robot
     robot.loops = read_loops(robot, tree)
     return robot
 

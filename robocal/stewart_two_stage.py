@@ -31,7 +31,7 @@ FLOATING = "platform_float"
 def open_model(robot) -> Robot:
     """The Stewart robot with its floating platform replaced by six read 1-dof joints and no loops
     (the closure anchor frames `leg{j}_top.link1/.link2` are kept)."""
-    from .loops import read_loops
+    from .loops_urdf import read_loops
     tree = etree.fromstring(robot.urdf_text.encode("utf-8"))
     joint = next((j for j in tree.findall("joint") if j.get("name") == FLOATING), None)
     if joint is None:
