@@ -42,7 +42,7 @@ def _fmt(v, spec: str = ".4g") -> str:
 
 def _length_rows(block: dict, state: str) -> np.ndarray:
     """(terms, k) the block's length rows of each term, in m."""
-    r = np.array(block[f"residual_{state}"], float).reshape(len(block["samples"]), -1)
+    r = np.array(block[f"residual_{state}"], float).reshape(len(block["terms"]), -1)
     return r[:, [u == "length" for u in block["row_units"]]]
 
 

@@ -2,14 +2,17 @@
 
 `scene_bytes(problem, result, params_before)` evaluates the model twice (the parameters before and after
 the fit) on every sample and records, in SI units:
-  - the world pose of every link (and of every measured frame) per sample, before and after;
-  - per measurement block and term: the measured point(s), the model's prediction(s) and the raw
-    residual vector, before and after, plus the measurement artefact (plane, sphere, cylinder, ball
-    bar, laser line) at its initial and estimated values;
+  - the world pose of every link (and of every measured frame) per sample, before and after, and the
+    skeleton drawn without meshes (robocal.scene_skeleton), before and after;
+  - per measurement block and term: the sample(s) it uses, the measured point(s), the model's
+    prediction(s) and the raw residual vector, before and after, plus the measurement artefact (plane,
+    sphere, cylinder, ball bar, laser line, sphere artefact) at its initial and estimated values; pose
+    blocks also hold the measured and predicted orientations;
   - the identification Jacobian's singular values and the rank the base-parameter selection kept.
 
 Poses come only from `SampleState.pose(frame)`, so a closed-chain machine (whose SampleState assembles its
 loops) is recorded exactly like a serial arm. Nothing here loads meshes: the viewer does that.
+Version 2 added the skeleton and `terms`; `read_scene` fills both in for a version-1 file.
 """
 from __future__ import annotations
 
@@ -24,11 +27,14 @@ from .errors import InputError
 from .kinematics import ModelState
 from .problem import LazyStates
 from .residuals.base import tilted_direction
+from .scene_skeleton import skeleton, skeleton_from_links
+from .sphere_fit import fit_sphere
 
 log = logging.getLogger(__name__)
 
 FORMAT = "robocal-scene"
-VERSION = 1
+VERSION = 2
+SUPPORTED = (1, 2)
 STATES = ("before", "after")
 
 
@@ -94,6 +100,21 @@ def _points(res, k, M, aux) -> tuple[np.ndarray, np.ndarray]:
     return np.zeros((0, 3)), np.zeros((0, 3))
 
 
+def _artefact_hits(res, k, states, aux) -> tuple[np.ndarray, np.ndarray, list]:
+    """A sphere-artefact placement: (measured, predicted) per hit, in term_samples order, and the fitted
+    centres. Predicted: the probe point; measured: where it would be on a sphere of the certified radius
+    about the fitted centre (as for a single sphere), so each arrow is that hit's radial error."""
+    meas, pred, centres = [], [], []
+    for j, hits in enumerate(res.placements[k]):
+        X = np.array([states[int(i)].pose(res.frame).act(res.point) for i in hits])
+        c = fit_sphere(X, source=f"{res.name}, placement {k}, sphere {j}").centre
+        e = (X - c) / np.linalg.norm(X - c, axis=1, keepdims=True)
+        meas.append(c + (aux[j] + aux[-1]) * e)
+        pred.append(X)
+        centres.append(c.tolist())
+    return np.vstack(meas), np.vstack(pred), centres
+
+
 def _artefact(res, aux) -> dict | None:
     t = res.type_name
     if t == "plane":
@@ -108,11 +129,59 @@ def _artefact(res, aux) -> dict | None:
         return {"kind": "ball_bar", "centre": aux[:3].tolist()}
     if t == "laser_line":
         return {"kind": "laser_line", "target": aux[:3].tolist()}
+    if t == "sphere_artefact":     # the fitted centres are added per placement
+        return {"kind": "sphere_artefact", "radii": aux[:res.n_spheres].tolist(), "centres": []}
     return None
 
 
-def scene_data(problem, result, params_before) -> dict:
-    """The scene of a calibration as plain data (see module doc). `problem` may be a config Setup."""
+def identification(result) -> dict:
+    """The identification summary of a CalibrationResult, as the scene records it."""
+    sel = result.selection
+    return {"singular_values": np.asarray(sel.singular_values, float).tolist(), "rank": sel.rank,
+            "requested": len(result.requested), "rtol": sel.rtol, "condition": result.condition}
+
+
+def _block(res, states, param_sets) -> dict:
+    block = {"name": res.name, "type": res.type_name, "frame": getattr(res, "frame", None),
+             "samples": res.samples.tolist(), "terms": [list(res.term_samples(k)) for k in range(res.n_terms)],
+             "row_units": list(res.row_units), "sigma": res.sigma.tolist()}
+    for s in STATES:
+        aux = _aux(param_sets[s], res)
+        art = _artefact(res, aux) if hasattr(res, "frame") else None
+        meas, pred, rows, beams = [], [], [], []
+        for k in range(res.n_terms):
+            rows.append(res.evaluate(k, states[s], aux).r.tolist())
+            if res.type_name == "sphere_artefact":
+                m, p, centres = _artefact_hits(res, k, states[s], aux)
+                art["centres"].append(centres)
+            elif len(res.term_samples(k)) == 1 and hasattr(res, "frame"):
+                M = states[s][int(res.term_samples(k)[0])].pose(res.frame)
+                m, p = _points(res, k, M, aux)
+                if res.type_name == "laser_line":
+                    beams.append(M.act(aux[3:6]).tolist())   # where the beam leaves the tool
+            else:
+                continue
+            meas.append(m.tolist())
+            pred.append(p.tolist())
+        block[f"measured_{s}"] = meas
+        block[f"predicted_{s}"] = pred
+        block[f"residual_{s}"] = rows
+        block[f"artefact_{s}"] = art
+        if beams:
+            block[f"beam_origin_{s}"] = beams
+        if res.type_name == "pose":
+            block[f"orientation_{s}"] = [pin.Quaternion(states[s][int(i)].pose(res.frame).rotation).coeffs().tolist()
+                                         for i in res.samples]
+    if res.type_name == "pose":
+        block["measured_orientation"] = res.measurements[:, 3:7].tolist()
+    if not block["measured_after"]:
+        log.info("block %s (%s): no points to draw for this measurement type", res.name, res.type_name)
+    return block
+
+
+def scene_data(problem, result, params_before, ident: dict | None = None) -> dict:
+    """The scene of a calibration as plain data (see module doc). `problem` may be a config Setup;
+    `ident` replaces `identification(result)` (result may then be None)."""
     problem = getattr(problem, "problem", problem)
     robot = problem.robot
     links = link_tree(robot)
@@ -125,57 +194,24 @@ def scene_data(problem, result, params_before) -> dict:
     anchors = [f for c in closures for f in c["frames"]]
     frame_names = list(dict.fromkeys([lk["name"] for lk in links] + measured_frames + anchors))
     param_sets = {"before": params_before, "after": problem.params}
-    states = {s: LazyStates(ModelState(robot, p, problem.joint_names), problem.values) for s, p in param_sets.items()}
+    models = {s: ModelState(robot, p, problem.joint_names) for s, p in param_sets.items()}
+    for ms in models.values():            # closed chains: assemble from the fit's last solutions
+        ms.warm_starts = dict(problem.warm_starts)
+    states = {s: LazyStates(ms, problem.values) for s, ms in models.items()}
     n = len(problem.values)
     poses = {s: [[_pose7(states[s][i].pose(f)) for f in frame_names] for i in range(n)] for s in STATES}
-    blocks = []
-    for res in problem.residuals:
-        block = {"name": res.name, "type": res.type_name, "frame": getattr(res, "frame", None),
-                 "samples": res.samples.tolist(), "row_units": list(res.row_units),
-                 "sigma": res.sigma.tolist()}
-        for s in STATES:
-            aux = _aux(param_sets[s], res)
-            meas, pred, rows, beams = [], [], [], []
-            for k in range(res.n_terms):
-                term = res.term_samples(k)
-                i = int(term[0])
-                # a term over several samples (a sphere artefact's hits) has no single point to draw
-                one = len(term) == 1 and hasattr(res, "frame")
-                M = states[s][i].pose(res.frame) if one else None
-                rows.append(res.evaluate(k, states[s], aux).r.tolist())
-                if M is not None:
-                    m, p = _points(res, k, M, aux)
-                    meas.append(m.tolist())
-                    pred.append(p.tolist())
-                    if res.type_name == "laser_line":
-                        beams.append(M.act(aux[3:6]).tolist())   # where the beam leaves the tool
-            block[f"measured_{s}"] = meas
-            block[f"predicted_{s}"] = pred
-            block[f"residual_{s}"] = rows
-            block[f"artefact_{s}"] = _artefact(res, aux) if hasattr(res, "frame") else None
-            if beams:
-                block[f"beam_origin_{s}"] = beams
-            if res.type_name == "pose":
-                block[f"orientation_{s}"] = [pin.Quaternion(states[s][int(i)].pose(res.frame).rotation).coeffs().tolist()
-                                             for i in res.samples]
-        if res.type_name == "pose":
-            block["measured_orientation"] = res.measurements[:, 3:7].tolist()
-        if not block["measured_after"]:
-            log.info("block %s (%s): no points to draw for this measurement type", res.name, res.type_name)
-        blocks.append(block)
-    sel = result.selection
     return {
         "format": FORMAT, "version": VERSION, "units": "SI (m, rad)",
         "robot": {"name": robot.name, "urdf_path": str(robot.urdf_path) if robot.urdf_path else None,
                   "package_dirs": list(robot.package_dirs), "links": links,
-                  "closed_chain": robot.loops is not None, "closures": closures},
+                  "closed_chain": robot.loops is not None, "closures": closures,
+                  "skeleton": {s: skeleton(robot, models[s].model, links) for s in STATES}},
         "joint_names": list(problem.joint_names),
         "values": problem.values.tolist(),
         "frames": frame_names,
         "poses": poses,
-        "blocks": blocks,
-        "identification": {"singular_values": np.asarray(sel.singular_values, float).tolist(), "rank": sel.rank,
-                           "requested": len(result.requested), "rtol": sel.rtol, "condition": result.condition},
+        "blocks": [_block(res, states, param_sets) for res in problem.residuals],
+        "identification": ident if ident is not None else identification(result),
     }
 
 
@@ -198,9 +234,9 @@ def read_scene(path: str | Path) -> dict:
         raise InputError(f"not valid JSON: {exc.msg}", source=str(path), row=exc.lineno) from exc
     if not isinstance(data, dict) or data.get("format") != FORMAT:
         raise InputError(f"not a robocal scene file (expected format '{FORMAT}')", source=str(path), field="format")
-    if data.get("version") != VERSION:
-        raise InputError(f"scene file version {data.get('version')} is not supported (expected {VERSION})",
-                         source=str(path), field="version")
+    if data.get("version") not in SUPPORTED:
+        raise InputError(f"scene file version {data.get('version')} is not supported (expected one of "
+                         f"{', '.join(map(str, SUPPORTED))})", source=str(path), field="version")
     for key in ("robot", "frames", "poses", "blocks", "values", "identification"):
         if key not in data:
             raise InputError("required key is missing", source=str(path), field=key)
@@ -208,4 +244,14 @@ def read_scene(path: str | Path) -> dict:
     for s in STATES:
         if len(data["poses"].get(s, [])) != n:
             raise InputError(f"poses.{s} must have one entry per sample ({n})", source=str(path), field=f"poses.{s}")
+    return upgrade(data)
+
+
+def upgrade(data: dict) -> dict:
+    """A version-1 scene in the version-2 layout (skeleton from the link origins, one sample per term)."""
+    if data.get("version") == 1:
+        data["robot"]["skeleton"] = {s: skeleton_from_links(data, s) for s in STATES}
+        for b in data["blocks"]:
+            b["terms"] = [[i] for i in b["samples"]]
+        data["version"] = VERSION
     return data

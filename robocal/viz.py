@@ -5,12 +5,14 @@ starts the server) or, by default, an offline recorder whose `static_html()` is 
 (meshcat's three.js bundle, meshes and commands inlined; opens from a file without a server).
 
 Drawn under /meshcat/robocal:
-  robot/<link>            after calibration: URDF visual meshes (simple shapes when there are none)
+  robot/<link>            after calibration: URDF visual meshes, or the skeleton (robocal.viz_skeleton)
   robot_before/<link>     before calibration: a thin orange skeleton
+  robot*/moving/          skeleton segments whose length or direction changes per sample (struts)
   frames/<frame>          triads on the measured frames
   measurements/<block>/   points measured (dark), predicted before (orange) / after (blue), residual
-                          arrows before / after, each scaled for visibility and coloured by size
-  artefacts/<block>/      plane, sphere, cylinder, ball bar (fixed ball and bars), laser (beams, fixed point)
+                          arrows before / after, each scaled for visibility and coloured by size; pose
+                          blocks: triads (robocal.viz_measurements)
+  artefacts/<block>/      the measurement artefacts (robocal.viz_artefacts)
   current/<block>         a marker on the current sample's measurement
 Every pose comes from the scene's per-sample link poses (SampleState.pose), so closed-chain machines are
 drawn with their loops closed without any special case here.
@@ -28,73 +30,15 @@ import numpy as np
 import pinocchio as pin
 
 from .meshcat_page import STEP_SCRIPT, RecordingWindow
-from .residuals.base import basis_from_normal
+from .scene_data import upgrade
+from .viz_artefacts import draw_artefact
+from .viz_measurements import current_point, draw_measurements, label_parts, rotation_scale
+from .viz_shapes import ARROW_FRACTION, COLOURS, _se3, arrows, colour_scale, nice_factor  # noqa: F401 (arrows, colour_scale: public here)
+from .viz_skeleton import draw_skeleton, segment_at
 
 log = logging.getLogger(__name__)
 
 ROOT = "robocal"
-COLOURS = {"measured": 0x202020, "before": 0xff8c00, "after": 0x1f77b4, "robot": 0x8ca6c0,
-           "current": 0xd000d0, "artefact": 0x6fa86f, "laser": 0xe02020, "steel": 0xa0a0a0}
-# Residual colour scale (fraction of the largest residual -> RGB): green, yellow, red.
-SCALE_STOPS = np.array([[0.0, 0.10, 0.60, 0.31], [0.5, 0.99, 0.88, 0.55], [1.0, 0.84, 0.19, 0.15]])
-ARROW_FRACTION = 0.08      # the largest arrow is drawn this fraction of the scene's size
-
-
-def _se3(p7) -> pin.SE3:
-    x, y, z, qx, qy, qz, qw = p7
-    return pin.SE3(pin.Quaternion(qw, qx, qy, qz).toRotationMatrix(), np.array([x, y, z]))
-
-
-def colour_scale(values: np.ndarray, vmax: float) -> np.ndarray:
-    """(n, 3) RGB in [0, 1] for |values| on the green-yellow-red scale from 0 to vmax."""
-    f = np.clip(np.abs(np.asarray(values, float)) / vmax, 0.0, 1.0) if vmax > 0 else np.zeros(len(values))
-    return np.column_stack([np.interp(f, SCALE_STOPS[:, 0], SCALE_STOPS[:, c]) for c in (1, 2, 3)])
-
-
-def nice_factor(x: float) -> float:
-    """The largest 1-2-5 x 10^k not above x (arrow magnification reads as a round number)."""
-    if not np.isfinite(x) or x <= 0:
-        return 1.0
-    e = np.floor(np.log10(x))
-    m = x / 10 ** e
-    return float((5 if m >= 5 else 2 if m >= 2 else 1) * 10 ** e)
-
-
-def arrows(start: np.ndarray, vec: np.ndarray, colours: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Line-segment vertices (3, 6n) and colours of arrows start -> start + vec (shaft and two barbs)."""
-    pos, col = [], []
-    for a, v, c in zip(start, vec, colours):
-        length = np.linalg.norm(v)
-        if length == 0:
-            continue
-        u = v / length
-        side = np.cross(u, [0.0, 0.0, 1.0] if abs(u[2]) < 0.9 else [1.0, 0.0, 0.0])
-        side /= np.linalg.norm(side)
-        tip = a + v
-        for b in (a, tip - 0.25 * length * u + 0.1 * length * side, tip - 0.25 * length * u - 0.1 * length * side):
-            pos += [b, tip]
-            col += [c, c]
-    return np.array(pos, np.float32).reshape(-1, 3).T, np.array(col, np.float32).reshape(-1, 3).T
-
-
-def _points_object(points: np.ndarray, colour: int, size: float):
-    return mg.Points(mg.PointsGeometry(points.T.astype(np.float32)), mg.PointsMaterial(size=size, color=colour))
-
-
-def _segments_object(pos: np.ndarray, col: np.ndarray | None = None, colour: int = 0xffffff):
-    return mg.LineSegments(mg.PointsGeometry(pos, col),
-                           mg.LineBasicMaterial(color=colour, vertexColors=col is not None))
-
-
-def _segment_transform(a: np.ndarray, b: np.ndarray, radius_scale: float = 1.0) -> np.ndarray:
-    """4x4 taking meshcat's unit cylinder (axis y, centred) onto the segment a -> b."""
-    d = b - a
-    # basis_from_normal gives a rotation with z along d; Rx(90 deg) brings y onto z.
-    R = basis_from_normal(d) @ pin.rpy.rpyToMatrix(np.pi / 2, 0, 0)
-    T = np.eye(4)
-    T[:3, :3] = R @ np.diag([radius_scale, np.linalg.norm(d), radius_scale])
-    T[:3, 3] = (a + b) / 2
-    return T
 
 
 # ---- robot geometry -------------------------------------------------------------------------------
@@ -166,7 +110,7 @@ class SceneView:
     """
 
     def __init__(self, scene: dict, vis: meshcat.Visualizer | None = None, meshes: bool = True):
-        self.scene = scene
+        self.scene = upgrade(scene)
         self.window = RecordingWindow() if vis is None else None
         self.vis = meshcat.Visualizer(window=self.window) if vis is None else vis
         self.root = self.vis[ROOT]
@@ -184,6 +128,10 @@ class SceneView:
                       for b in scene["blocks"] if b[f"measured_{s}"]] + [0.0])
             self.arrow_max[s] = float(mx)
             self.arrow_scale[s] = nice_factor(ARROW_FRACTION * self.size / mx) if mx > 0 else 1.0
+        self.rotation_max, self.rotation_scale = {}, {}
+        for s in ("before", "after"):
+            self.rotation_max[s], self.rotation_scale[s] = rotation_scale(scene["blocks"], s)
+        self.moving: list[tuple] = []
         self.meshes = meshes
         self.drawn = False
 
@@ -199,109 +147,17 @@ class SceneView:
                 node = self.root["robot"][link][f"visual{k}"]
                 node.set_object(geom, mat)
                 node.set_transform(T)
-        else:
-            self._skeleton("robot", COLOURS["robot"], 0.025, 1.0)
-        self._skeleton("robot_before", COLOURS["before"], 0.008, 0.6)
+        self.moving = [] if visuals else draw_skeleton(self, "robot", "after", COLOURS["robot"], 0.025, 1.0)
+        self.moving += draw_skeleton(self, "robot_before", "before", COLOURS["before"], 0.008, 0.6)
         for f in dict.fromkeys(b["frame"] for b in self.scene["blocks"] if b["frame"]):
             self.root["frames"][f].set_object(mg.triad(0.05))
         for b in self.scene["blocks"]:
-            self._measurements(b)
-            self._artefact(b)
+            draw_measurements(self, b)
+            draw_artefact(self, b)
         self._camera()
         self.drawn = True
         self.show_sample(sample)
         return self
-
-    def _skeleton(self, name: str, colour: int, radius: float, opacity: float) -> None:
-        """Spheres at link origins, cylinders to the child links (geometry taken at sample 0)."""
-        mat = mg.MeshLambertMaterial(color=colour, opacity=opacity)
-        state = "after" if name == "robot" else "before"
-        for lk in self.scene["robot"]["links"]:
-            node = self.root[name][lk["name"]]
-            node["joint"].set_object(mg.Sphere(1.6 * radius), mat)
-            if lk["parent"] is None:
-                continue
-            rel = np.linalg.inv(self.pose(state, 0, lk["parent"])) @ self.pose(state, 0, lk["name"])
-            if np.linalg.norm(rel[:3, 3]) > 1e-6:
-                seg = self.root[name][lk["parent"]][f"to_{lk['name']}"]
-                seg.set_object(mg.Cylinder(1.0, radius), mat)
-                seg.set_transform(_segment_transform(np.zeros(3), rel[:3, 3]))
-        # closed chains: each closure's anchors are drawn as a joint with arms from both links' origins
-        # (a Stewart platform's plate appears as the arms from its origin to the strut ends)
-        for c in self.scene["robot"].get("closures", []):
-            for frame, link in zip(c["frames"], c["links"]):
-                if link not in self.links:
-                    continue
-                rel = np.linalg.inv(self.pose(state, 0, link)) @ self.pose(state, 0, frame)
-                node = self.root[name][link][f"closure_{c['name']}_{frame}"]
-                if np.linalg.norm(rel[:3, 3]) > 1e-6:
-                    node.set_object(mg.Cylinder(1.0, 0.6 * radius), mat)
-                    node.set_transform(_segment_transform(np.zeros(3), rel[:3, 3]))
-            self.root[name][c["links"][1]][f"closure_{c['name']}_joint"].set_object(mg.Sphere(1.4 * radius), mat)
-            anchor = np.linalg.inv(self.pose(state, 0, c["links"][1])) @ self.pose(state, 0, c["frames"][1])
-            self.root[name][c["links"][1]][f"closure_{c['name']}_joint"].set_transform(anchor)
-
-    def _measurements(self, b: dict) -> None:
-        node = self.root["measurements"][b["name"]]
-        meas = np.array(b["measured_after"]).reshape(-1, 3)
-        if not len(meas):
-            return
-        size = 0.006 * max(self.size, 0.5)
-        node["measured"].set_object(_points_object(meas, COLOURS["measured"], size))
-        for s in ("before", "after"):
-            m = np.array(b[f"measured_{s}"]).reshape(-1, 3)
-            p = np.array(b[f"predicted_{s}"]).reshape(-1, 3)
-            node[f"predicted_{s}"].set_object(_points_object(p, COLOURS[s], size))
-            err = np.linalg.norm(p - m, axis=1)
-            pos, col = arrows(m, self.arrow_scale[s] * (p - m), colour_scale(err, self.arrow_max[s]))
-            if pos.size:
-                node[f"residual_{s}"].set_object(_segments_object(pos, col))
-        node["predicted_before"].set_property("visible", False)
-        self.root["current"][b["name"]].set_object(mg.Sphere(0.012 * max(self.size, 0.5)),
-                                                   mg.MeshLambertMaterial(color=COLOURS["current"], opacity=0.5))
-
-    def _artefact(self, b: dict) -> None:
-        for s in ("after", "before"):
-            a = b.get(f"artefact_{s}")
-            if not a:
-                continue
-            node = self.root["artefacts"][b["name"]][s]
-            meas = np.array(b[f"measured_{s}"]).reshape(-1, 3)
-            pred = np.array(b[f"predicted_{s}"]).reshape(-1, 3)
-            mat = mg.MeshLambertMaterial(color=COLOURS["artefact"], opacity=0.45 if s == "after" else 0.2)
-            kind = a["kind"]
-            if kind == "plane":
-                R = basis_from_normal(a["normal"])
-                local = (meas - meas.mean(axis=0)) @ R
-                span = np.ptp(local[:, :2], axis=0) + 0.1
-                T = np.eye(4)
-                T[:3, :3], T[:3, 3] = R, meas.mean(axis=0)
-                node.set_object(mg.Box([span[0], span[1], 0.001]), mat)
-                node.set_transform(T)
-            elif kind == "sphere":
-                node.set_object(mg.Sphere(a["radius"]), mg.MeshLambertMaterial(color=COLOURS["steel"]))
-                node.set_transform(pin.SE3(np.eye(3), np.array(a["centre"])).homogeneous)
-            elif kind == "cylinder":
-                p0, u = np.array(a["point"]), np.array(a["direction"])
-                t = (meas - p0) @ u
-                node.set_object(mg.Cylinder(1.0, 1.0), mat)
-                node.set_transform(_segment_transform(p0 + (t.min() - 0.05) * u, p0 + (t.max() + 0.05) * u,
-                                                      a["radius"]))
-            elif kind == "ball_bar":
-                c = np.array(a["centre"])
-                node["ball"].set_object(mg.Sphere(0.011), mg.MeshLambertMaterial(color=COLOURS["steel"]))
-                node["ball"].set_transform(pin.SE3(np.eye(3), c).homogeneous)
-                pos = np.column_stack([np.tile(c, (len(pred), 1)), pred]).reshape(-1, 3).T.astype(np.float32)
-                node["bars"].set_object(_segments_object(pos, colour=0x606060))
-            elif kind == "laser_line":
-                P, o = np.array(a["target"]), np.array(b[f"beam_origin_{s}"]).reshape(-1, 3)
-                node["fixed_point"].set_object(mg.Sphere(0.008), mg.MeshLambertMaterial(color=COLOURS["laser"]))
-                node["fixed_point"].set_transform(pin.SE3(np.eye(3), P).homogeneous)
-                ends = o + 1.15 * (pred - o)
-                pos = np.column_stack([o, ends]).reshape(-1, 3).T.astype(np.float32)
-                node["beams"].set_object(_segments_object(pos, colour=COLOURS["laser"]))
-            if s == "before":
-                node.set_property("visible", False)
 
     def _camera(self) -> None:
         # meshcat's camera orbits the origin and this meshcat has no command to move its target, so the
@@ -322,14 +178,16 @@ class SceneView:
         for name, state in (("robot", "after"), ("robot_before", "before")):
             for link in self.links:
                 T[f"{base}/{name}/{link}"] = self.pose(state, sample, link)
+        for path, state, ends in self.moving:
+            T[f"{base}/{path}"] = segment_at(self, state, sample, ends)
         for b in self.scene["blocks"]:
             if b["frame"]:
                 T[f"{base}/frames/{b['frame']}"] = self.pose("after", sample, b["frame"])
-            hits = [k for k, i in enumerate(b["samples"]) if i == sample]
+            point = current_point(b, sample)
             path = f"{base}/current/{b['name']}"
-            V[path] = bool(hits) and bool(b["measured_after"])
-            if V[path]:
-                T[path] = pin.SE3(np.eye(3), np.mean(b["measured_after"][hits[0]], axis=0)).homogeneous
+            V[path] = point is not None
+            if point is not None:
+                T[path] = pin.SE3(np.eye(3), point).homogeneous
         return T, V
 
     def show_sample(self, sample: int) -> None:
@@ -346,13 +204,7 @@ class SceneView:
             self.vis[path].set_property("visible", v)
 
     def sample_label(self, sample: int) -> str:
-        parts = []
-        for b in self.scene["blocks"]:
-            for k, i in enumerate(b["samples"]):
-                if i == sample:
-                    length = np.array(b["row_units"]) == "length"     # mm only: pose blocks also hold angles
-                    r0, r1 = (np.linalg.norm(np.array(b[f"residual_{s}"][k])[length]) for s in ("before", "after"))
-                    parts.append(f"{b['name']}: |r| {1e3 * r0:.3g} -> {1e3 * r1:.3g} mm")
+        parts = [p for b in self.scene["blocks"] for p in label_parts(b, sample)]
         return f"sample {sample + 1} / {self.n_samples}" + ("; " + "; ".join(parts) if parts else "")
 
     # ---- static page ---------------------------------------------------------------------------
@@ -368,6 +220,11 @@ class SceneView:
         for s in ("before", "after"):
             rows.append(f'residual {s}: <span class="bar"></span> 0 &ndash; {1e3 * self.arrow_max[s]:.3g} mm, '
                         f'arrows &times;{self.arrow_scale[s]:g}')
+        if any(b["type"] == "pose" for b in self.scene["blocks"]):
+            rows.append("pose triads: measured (red, green, blue axes), predicted after (blue) / before (orange, "
+                        "hidden); rotation errors &times;" + ", &times;".join(
+                            f"{self.rotation_scale[s]:g} ({s}, up to {1e3 * self.rotation_max[s]:.3g} mrad)"
+                            for s in ("after", "before")))
         return '<div id="robocal-legend">' + "<br>".join(rows) + "</div>"
 
     def static_html(self, sample: int = 0) -> str:

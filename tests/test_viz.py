@@ -146,3 +146,28 @@ def test_sample_label_shows_the_position_residual_in_mm():
     r = np.array(scene["blocks"][0]["residual_after"][4])
     label = view.sample_label(4)
     assert label.startswith("sample 5 / 60") and f"-> {1e3 * np.linalg.norm(r[:3]):.3g} mm" in label
+
+
+def test_pose_blocks_draw_triads_with_the_rotation_error_magnified():
+    from robocal.scene_data import read_scene
+    import umsgpack
+    view = _view(scene=read_scene(demo_result_dir()))
+    b = view.scene["blocks"][0]
+    nodes = view.window.nodes
+    base = f"{ROOT}/measurements/tracker"
+    assert "visible" in nodes[f"{base}/triad_before"]["properties"]          # before: hidden at first
+    pos = {}
+    for part in ("measured", "after"):
+        obj = umsgpack.unpackb(nodes[f"{base}/triad_{part}"]["object"])
+        arr = obj["object"]["geometries"][0]["data"]["attributes"]["position"]["array"]    # a msgpack Ext
+        pos[part] = np.frombuffer(arr.data, np.float32).reshape(-1, 2, 3)
+    assert len(pos["measured"]) == 3 * len(b["samples"])                   # three axes per measured pose
+    np.testing.assert_allclose(pos["after"][:, 0], pos["measured"][:, 0], atol=1e-6)   # same origins
+    # the angle between measured and predicted x axes is the magnified rotation residual (small angles)
+    k = int(np.argmax(np.linalg.norm(np.array(b["residual_after"])[:, 3:], axis=1)))
+    u, v = (pos[p][3 * k, 1] - pos[p][3 * k, 0] for p in ("measured", "after"))
+    angle = np.arccos(np.clip(u @ v / np.linalg.norm(u) / np.linalg.norm(v), -1, 1))
+    r = np.array(b["residual_after"][k][3:])
+    x = pos["measured"][3 * k, 1] - pos["measured"][3 * k, 0]
+    expected = view.rotation_scale["after"] * np.linalg.norm(np.cross(r, x / np.linalg.norm(x)))
+    assert view.rotation_scale["after"] > 1 and abs(angle - expected) < 0.05 * expected + 1e-4

@@ -1,8 +1,8 @@
 """A closed-loop machine's result builds a scene whose every sample has its loops closed."""
 import json
+from functools import lru_cache
 
 import numpy as np
-import pinocchio as pin
 
 from robocal.calibrate import calibrate
 from robocal.problem import Problem
@@ -13,7 +13,9 @@ from robocal.viz import SceneView
 from test_loop_sensitivities import stewart_problem
 
 
-def test_stewart_result_scene_has_closed_loops_and_exports():
+@lru_cache(maxsize=1)
+def stewart_case():
+    """Stewart 6-6, 16 poses, tracker on the tool, calibrated: (problem after the fit, result, before)."""
     rng = np.random.default_rng(0)
     robot, ps, act, lengths = stewart_problem(rng, 16)   # 96 rows for the 90 requested parameters
     for p in ps:
@@ -24,8 +26,19 @@ def test_stewart_result_scene_has_closed_loops_and_exports():
                                                              sigma=(1e-5, 1e-5))])
     simulate_measurements(problem, perturb(problem.params, rng, 1e-3, 1e-3), rng)
     before = problem.params.copy()
-    result = calibrate(problem)
-    scene = json.loads(scene_bytes(problem, result, before))
+    return problem, calibrate(problem), before
+
+
+def stewart_scene() -> dict:
+    problem, result, before = stewart_case()
+    return json.loads(scene_bytes(problem, result, before))
+
+
+def test_stewart_result_scene_has_closed_loops_and_exports():
+    problem, _, _ = stewart_case()
+    robot = problem.robot
+    scene = stewart_scene()
+    n = len(problem.values)
     assert len(scene["values"]) == n
     # every closure's two anchors coincide in the recorded link poses (the loops are drawn closed)
     states = problem.states()

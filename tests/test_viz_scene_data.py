@@ -174,3 +174,20 @@ def test_read_scene_reports_bad_files(tmp_path):
 def test_scene_data_is_deterministic():
     problem, result, before = all_types_case()
     assert scene_data(problem, result, before) == scene_data(problem, result, before)
+
+
+def test_version_1_scene_files_still_open(tmp_path):
+    """A scene written before the skeleton and `terms` existed reads, draws and steps."""
+    from robocal.viz import SceneView
+    old = json.loads(json.dumps(all_types_scene()))
+    old["version"] = 1
+    del old["robot"]["skeleton"]
+    for b in old["blocks"]:
+        del b["terms"]
+    (tmp_path / "scene.json").write_text(json.dumps(old))
+    scene = read_scene(tmp_path)
+    assert scene["version"] == 2 and all(b["terms"] == [[i] for i in b["samples"]] for b in scene["blocks"])
+    segs = scene["robot"]["skeleton"]["after"]["segments"]
+    assert len(segs) == len(scene["robot"]["links"]) - 1           # link origins joined to their parents
+    view = SceneView(scene, meshes=False)
+    assert view.sample_label(3).startswith("sample 4 /") and len(view.static_html()) > 500_000
