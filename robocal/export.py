@@ -2,7 +2,8 @@
 
 A joint's placement error and zero offset are folded into its origin (origin * exp6(delta), then the
 offset as a motion along the joint axis, which leaves the axis as written); a calibrated frame that
-is a URDF link edits the origin of the fixed joint that creates it. Everything else (transmissions,
+is a URDF link edits the origin of the fixed joint that creates it; loop anchors and screw transmissions
+edit their closure elements (export_loops). Everything else (transmissions,
 gazebo tags, meshes, comments) is kept byte for byte by lxml. Frames robocal added itself (markers,
 tools declared in the config) and the measurement-frame (base) parameters are not robot geometry:
 they stay in the JSON result. The file is written atomically and never over the input URDF.
@@ -18,6 +19,7 @@ import pinocchio as pin
 from lxml import etree
 
 from .errors import InputError
+from .export_loops import driven_offset_scales, edit_closure_elements
 from .parameters import ParameterSet
 
 
@@ -53,7 +55,8 @@ def calibrated_urdf(robot, params: ParameterSet) -> bytes:
     # direct children only: <transmission> elements hold <joint> references of their own
     joints = {j.get("name"): j for j in root.findall("joint")}
     by_child = {j.find("child").get("link"): j for j in joints.values() if j.find("child") is not None}
-    offsets = {p.target: p.value for p in params if p.kind == "joint_offset"}
+    scales = driven_offset_scales(robot, params)
+    offsets = {p.target: p.value * scales.get(p.target, 1.0) for p in params if p.kind == "joint_offset"}
     targets = {p.target for p in params if p.kind == "joint_placement"} | set(offsets)
     for name in targets:
         el = joints[name]
@@ -78,6 +81,7 @@ def calibrated_urdf(robot, params: ParameterSet) -> bytes:
             continue
         org, O = _origin(el)
         _write_origin(org, O * pin.exp6(pin.Motion(delta)))
+    edit_closure_elements(root, params)
     return etree.tostring(root, xml_declaration=True, encoding="utf-8")
 
 

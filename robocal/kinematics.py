@@ -41,6 +41,7 @@ class ModelState:
         self.offsets = np.zeros(len(self.joint_names))
         self.compliance = np.zeros(len(self.joint_names))
         self.compliance_cols: list[tuple] = []   # (read index, v index, free column, coefficient)
+        self.backlash, self.backlash_cols = np.zeros(len(self.joint_names)), []   # as compliance
         self.P_offset = np.zeros((self.model.nv, self.n_free))
         self.P_frame: dict[int, np.ndarray] = {}
         self.P_base = np.zeros((6, self.n_free))
@@ -53,7 +54,7 @@ class ModelState:
         for p in params:
             if p.kind in ("joint_placement", "frame_placement", "base"):
                 groups[(p.kind, p.target)] = None
-            elif p.kind in ("joint_compliance", "joint_offset"):
+            elif p.kind in ("joint_compliance", "joint_offset", "joint_backlash"):
                 if p.target not in read_v:
                     raise ValueError(f"{p.kind.split('_')[1]} parameter {p.name}: joint '{p.target}' is not read "
                                      "by the data")
@@ -62,6 +63,9 @@ class ModelState:
                     self.offsets[k] = p.value
                     for c, w in col.get(p.name, []):
                         self.P_offset[iv, c] += w
+                elif p.kind == "joint_backlash":
+                    self.backlash[k] = p.value
+                    self.backlash_cols += [(k, iv, c, w) for c, w in col.get(p.name, [])]
                 else:
                     self.compliance[k] = p.value
                     self.compliance_cols += [(k, iv, c, w) for c, w in col.get(p.name, [])]
@@ -106,14 +110,61 @@ class ModelState:
                 raise ValueError(f"the data must read the actuated joints; missing: {', '.join(missing)}")
             self._act_order = [self.joint_names.index(j) for j in self.loops.actuated]
             self._adata = self.model.createData()
+            self._setup_relations(params, col)
+        elif any(p.kind == "transmission" for p in params):
+            raise ValueError("transmission parameters need a robot with joint relations (screw transmissions or "
+                             "couplings)")
 
-    def sample(self, values: np.ndarray, q_guess: np.ndarray | None = None, label=None) -> "SampleState":
+    def _setup_relations(self, params: ParameterSet, col: dict) -> None:
+        """Joint relations (screw transmissions, couplings) of a closed chain, and their parameters.
+
+        A read joint driven through a relation (a screw's stroke) is solved by assembly, so whatever
+        shifts its reading (offset, compliance, backlash) acts through the relation row, not on the tree
+        joint: those columns move from the tree Jacobian to `driven_cols`."""
+        loops = self.loops
+        index = {r.name: k for k, r in enumerate(loops.relations)}
+        relations = list(loops.relations)
+        self.relation_cols = []     # (relation index, component, free column, coefficient)
+        for p in params:
+            if p.kind != "transmission":
+                continue
+            k = index.get(p.target)
+            if k is None:
+                raise ValueError(f"transmission parameter {p.name}: the robot has no joint relation '{p.target}'")
+            component = p.name.rsplit(".", 1)[-1]
+            if component not in relations[k].components:
+                raise ValueError(f"transmission parameter {p.name}: '{component}' is not one of "
+                                 f"{', '.join(relations[k].components)}")
+            relations[k] = relations[k].with_value(component, p.value)
+            self.relation_cols += [(k, component, c, w) for c, w in col.get(p.name, [])]
+        if relations != loops.relations:
+            self.loops = loops.with_relations(relations)
+        self.driven_reads = [self.joint_names.index(j) for j in loops.driven]
+        self.driven_cols = []       # (read index, free column, coefficient, 'offset' | 'compliance' | 'backlash')
+        for k in self.driven_reads:
+            iv = self._read_v_index[k]
+            self.driven_cols += [(k, c, self.P_offset[iv, c], "offset") for c in np.flatnonzero(self.P_offset[iv])]
+            self.P_offset[iv] = 0.0
+        for name in ("compliance", "backlash"):
+            cols = getattr(self, f"{name}_cols", [])
+            self.driven_cols += [(k, c, w, name) for k, iv, c, w in cols if k in self.driven_reads]
+            cols[:] = [e for e in cols if e[0] not in self.driven_reads]
+
+    def link_readings(self, values: np.ndarray, tau: np.ndarray | None = None) -> np.ndarray:
+        """What the joints are set to: readings + offsets - compliance * gravity torque."""
+        values = values + self.offsets
+        return values if tau is None else values - self.compliance * tau
+
+    def sample(self, values: np.ndarray, q_guess: np.ndarray | None = None, label=None,
+               direction: np.ndarray | None = None) -> "SampleState":
         """State at one sample's joint readings (in `joint_names` order, SI units).
+
+        direction: each read joint's approach direction (-1, 0, +1) for the backlash parameters; None = 0.
 
         On a closed-chain robot the passive joints are solved so that every loop closes (warm-started
         from `q_guess`, else from this sample's last solution); AssemblyError names `label` if impossible.
         """
-        return SampleState(self, np.asarray(values, dtype=float), label, q_guess)
+        return SampleState(self, np.asarray(values, dtype=float), label, q_guess, direction)
 
     def gravity_torque(self, values: np.ndarray) -> np.ndarray:
         """(n_read,) gravity torque of the nominal model at the readings (the compliance load)."""
@@ -124,17 +175,16 @@ class ModelState:
 
     def configuration(self, values: np.ndarray, q_guess: np.ndarray | None = None, label=None,
                       tau: np.ndarray | None = None) -> np.ndarray:
-        if tau is not None:
-            values = values - self.compliance * tau
-        q = self._qmap(values + self.offsets)
+        values = self.link_readings(values, tau)
+        q = self._qmap(values)
         if self.loops is None:
             return q
         from .loops import assemble   # loops imports robot; keep the import graph one-way at load time
         guess = q_guess if q_guess is not None else self.warm_starts.get(label)
         if guess is not None:
             guess = guess.copy()
-        q = assemble(self.robot, self.model, (values + self.offsets)[self._act_order], q_guess=guess,
-                     sample=label, data=self._adata)
+        q = assemble(self.robot, self.model, values[self._act_order], q_guess=guess, sample=label, data=self._adata,
+                     loops=self.loops)
         if label is not None:
             self.warm_starts[label] = q
         return q
@@ -143,10 +193,12 @@ class ModelState:
 class SampleState:
     """One sample: readings + forward kinematics, with cached frame quantities."""
 
-    def __init__(self, ms: ModelState, values: np.ndarray, label=None, q_guess=None):
+    def __init__(self, ms: ModelState, values: np.ndarray, label=None, q_guess=None, direction=None):
         self.ms, self.values, self.label = ms, values, label
+        self.direction = np.zeros(len(values)) if direction is None else np.asarray(direction, dtype=float)
         self.tau = ms.gravity_torque(values) if hasattr(ms, "_gdata") else None
-        self.q = ms.configuration(values, q_guess, label, self.tau)
+        # the link sits b on the approach side of the reading; the gravity load stays that of the reading
+        self.q = ms.configuration(values + ms.backlash * self.direction, q_guess, label, self.tau)
         self._cache: dict[int, tuple] = {}
         self._implicit = None
 
@@ -180,7 +232,10 @@ class SampleState:
         Jq = self._frame(frame)[2]
         J = Jq[:, self.ms._read_v_index]
         if self.ms.loops is not None:
-            J = J + Jq[:, self.ms.loops.passive_v] @ self._passive_sensitivity()[1]
+            if self.ms.driven_reads:          # solved by assembly: the reading acts through its relation
+                J = J.copy()
+                J[:, self.ms.driven_reads] = 0.0
+            J = J + Jq[:, self.ms.loops.solved_v] @ self._passive_sensitivity()[1]
         return J
 
     def frame_parameter_jacobian(self, frame) -> np.ndarray:
@@ -189,7 +244,7 @@ class SampleState:
         if hit[3] is None:
             J = self._tree_parameter_jacobian(frame, hit)
             if self.ms.loops is not None:
-                J = J + hit[2][:, self.ms.loops.passive_v] @ self._passive_sensitivity()[0]
+                J = J + hit[2][:, self.ms.loops.solved_v] @ self._passive_sensitivity()[0]
             hit[3] = J
         return hit[3]
 
@@ -202,6 +257,8 @@ class SampleState:
             J = hit[2] @ ms.P_offset
             for k, iv, c, w in ms.compliance_cols:          # d q_link / d c = -tau_g
                 J[:, c] -= w * hit[2][:, iv] * self.tau[k]
+            for k, iv, c, w in ms.backlash_cols:            # d q_link / d b = d
+                J[:, c] += w * hit[2][:, iv] * self.direction[k]
             if ms.has_joint_params:
                 reg = pin.computeFrameKinematicRegressor(ms.model, ms.data, fid, LOCAL)
                 J += reg @ ms.P_joint
@@ -213,8 +270,8 @@ class SampleState:
         return hit[4]
 
     def _passive_sensitivity(self) -> tuple[np.ndarray, np.ndarray]:
-        """(dq_passive/dtheta, dq_passive/dq_read) from the implicit-function theorem on the closures:
-        c(q_p, q_a, theta) = 0  =>  dq_p = -C_p^+ (C_theta dtheta + C_a dq_a)."""
+        """(dq_solved/dtheta, dq_solved/dq_read) from the implicit-function theorem on the closures and
+        joint relations: c(q_s, q_a, theta) = 0  =>  dq_s = -C_s^+ (C_theta dtheta + C_a dq_a)."""
         if self._implicit is None:
             ms, L = self.ms, self.ms.loops
             _, dc_dv = L.constraint_jacobian(ms.model, ms._adata, self.q)
@@ -223,8 +280,41 @@ class SampleState:
             _, D1, D2 = L.closure_error([h[1] for h in hits1], [h[1] for h in hits2])
             C_theta = np.vstack([d1 @ self._tree_parameter_jacobian(c.frame1, h1)
                                  + d2 @ self._tree_parameter_jacobian(c.frame2, h2)
-                                 for c, d1, d2, h1, h2 in zip(L.closures, D1, D2, hits1, hits2)])
-            rhs = np.hstack([C_theta, dc_dv[:, ms._read_v_index]])
-            sol = -np.linalg.lstsq(dc_dv[:, L.passive_v], rhs, rcond=None)[0]
+                                 for c, d1, d2, h1, h2 in zip(L.closures, D1, D2, hits1, hits2)]
+                                + [np.zeros((0, ms.n_free))])
+            C_read = dc_dv[:, ms._read_v_index]
+            if L.relations:
+                C_read[:, ms.driven_reads] = 0.0
+                rel_theta, rel_read, jr = self._relation_sensitivity()
+                dc_dv = np.vstack([dc_dv, jr])
+                C_theta, C_read = np.vstack([C_theta, rel_theta]), np.vstack([C_read, rel_read])
+            rhs = np.hstack([C_theta, C_read])
+            sol = -np.linalg.lstsq(dc_dv[:, L.solved_v], rhs, rcond=None)[0]
             self._implicit = (sol[:, :ms.n_free], sol[:, ms.n_free:])
         return self._implicit
+
+    def _relation_sensitivity(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Relation rows: d/dtheta (n_rel, n_free), d/dreadings (n_rel, n_read), d/dv (n_rel, nv)."""
+        ms, L = self.ms, self.ms.loops
+        u_read = ms.link_readings(self.values + ms.backlash * self.direction, self.tau)
+        u = u_read[ms._act_order]
+        _, jr = L.relation_rows(self.q, u)
+        rel_read = jr[:, ms._read_v_index]
+        rel_read[:, ms.driven_reads] = 0.0
+        rel_theta = np.zeros((len(L.relations), ms.n_free))
+        for k, component, c, w in ms.relation_cols:
+            act = L.relation_reading(k)
+            rel_theta[k, c] += w * L.relations[k].derivative(component, L.relation_values(self.q, k),
+                                                             u[act] if act is not None else 0.0)
+        factor = {"offset": lambda k: 1.0, "compliance": lambda k: -self.tau[k],
+                  "backlash": lambda k: self.direction[k]}
+        for k_rel, rel in enumerate(L.relations):
+            act = L.relation_reading(k_rel)
+            if act is None:
+                continue
+            k = ms._act_order[act]
+            rel_read[k_rel, k] = -rel.reading_scale
+            for kr, c, w, what in ms.driven_cols:
+                if kr == k:
+                    rel_theta[k_rel, c] -= rel.reading_scale * w * factor[what](kr)
+        return rel_theta, rel_read, jr

@@ -14,8 +14,11 @@ readers ignore. Two conventions are read:
 * URDF+ (arXiv 2411.19753): ``<loop>`` (or ``<constraint>``) naming a predecessor and a successor
   link, each with an optional ``<origin>``; type fixed, revolute/continuous (``<axis>``) and, as a
   robocal extension, spherical. ``<coupling>`` (or ``<constraint type="coupling">``) with
-  ``<ratio value>`` is stored in ``LoopSet.couplings`` (a screw or gear ties two joints; the
-  actuator layer applies it, the assembly here does not).
+  ``<ratio value>``: a gear or screw ties two joints.
+
+* robocal's ``<screw_transmission>`` (a ball screw whose nut may roll; see robocal.joint_relations).
+
+Couplings and screw transmissions are joint relations: one linear row each, assembled with the closures.
 
 plus ``<actuated joints="j1 j2 ..."/>`` (or, failing that, the joints of ``<transmission>``
 elements). Each closure k is anchored on two Pinocchio frames ``<name>.link1`` and ``<name>.link2``
@@ -26,6 +29,7 @@ respect to a LOCAL right twist xi = [v; w] of each anchor frame (M <- M exp6(xi)
 """
 from __future__ import annotations
 
+import copy
 import logging
 from dataclasses import dataclass
 
@@ -34,6 +38,7 @@ import pinocchio as pin
 from scipy.linalg.lapack import dposv
 
 from .errors import AssemblyError, InputError
+from .joint_relations import Coupling  # noqa: F401  (re-exported: loops.Coupling)
 
 log = logging.getLogger(__name__)
 
@@ -64,16 +69,6 @@ class Closure:
     axis: tuple | None = None
 
 
-@dataclass(frozen=True)
-class Coupling:
-    """A URDF+ coupling: velocity of `successor_joint` = ratio * velocity of `predecessor_joint`."""
-
-    name: str
-    predecessor_joint: str
-    successor_joint: str
-    ratio: float
-
-
 def _skew(a: np.ndarray) -> np.ndarray:
     return np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
 
@@ -90,18 +85,27 @@ class LoopSet:
     """The closures and the actuated/passive split of a closed-chain robot.
 
     closures   list of Closure
-    couplings  list of Coupling (stored, not enforced by `assemble`)
-    actuated   names of the joints read by encoders (1-dof joints)
+    relations  joint relations (Coupling, ScrewTransmission): one row each, enforced by `assemble`
+    actuated   names of the joints read by encoders (1-dof joints), in the readings' order
+    driven     the actuated joints whose reading acts through a relation (screw strokes): solved
     passive    names of the other joints with degrees of freedom
-    n_rows     total number of constraint rows
+    n_rows     number of closure rows (n_relation_rows: relation rows)
     actuated_v, passive_v   index arrays into the velocity vector (nv,)
+    solved_v   what assembly solves: passive_v plus the driven joints
     """
 
     def __init__(self, model: pin.Model, closures: list[Closure], actuated: list[str],
-                 couplings: list[Coupling] | None = None):
+                 relations: list | None = None):
         self.closures = list(closures)
-        self.couplings = list(couplings or [])
+        self.relations = list(relations or [])
         self.actuated = list(actuated)
+        self.driven = [r.driven for r in self.relations if r.driven is not None]
+        stray = [j for j in self.driven if j not in self.actuated]
+        if stray:
+            raise InputError(f"joint '{stray[0]}' is driven by a transmission but not listed in <actuated>",
+                             field="actuated")
+        self.n_relation_rows = len(self.relations)
+        self.nv = model.nv
         self.n_rows = int(sum(c.rows for c in self.closures))
         self._ids = [(model.getFrameId(c.frame1), model.getFrameId(c.frame2)) for c in self.closures]
         self._slices = []
@@ -123,6 +127,65 @@ class LoopSet:
             [np.arange(model.joints[model.getJointId(n)].idx_v,
                        model.joints[model.getJointId(n)].idx_v + model.joints[model.getJointId(n)].nv)
              for n in self.passive]).astype(int) if self.passive else np.zeros(0, dtype=int)
+        driven_v = [j.idx_v for n, j in zip(self.actuated, self._act_joints) if n in self.driven]
+        self.solved_v = np.sort(np.concatenate([self.passive_v, np.array(driven_v, dtype=int)]))
+        self._set = [k for k, n in enumerate(self.actuated) if n not in self.driven]
+
+        def where(name):
+            j = model.joints[model.getJointId(name)]
+            return j.idx_q, j.idx_v, j.nq
+        self._rel_index = [([where(n) for n in r.joints],
+                            self.actuated.index(r.driven) if r.driven is not None else None)
+                           for r in self.relations]
+
+    @property
+    def couplings(self) -> list[Coupling]:
+        return [r for r in self.relations if r.kind == "coupling"]
+
+    def with_relations(self, relations: list) -> "LoopSet":
+        """A copy with other relation values (same joints, e.g. a calibrated lead)."""
+        out = copy.copy(self)
+        out.relations = list(relations)
+        return out
+
+    # ---- joint relations -----------------------------------------------------------------
+    @staticmethod
+    def _joint_value(q, where) -> float:
+        iq, _, nq = where
+        return q[iq] if nq == 1 else np.arctan2(q[iq + 1], q[iq])
+
+    def relation_reading(self, k: int) -> int | None:
+        """Index in `actuated` of the reading that drives relation k, or None."""
+        return self._rel_index[k][1]
+
+    def relation_values(self, q: np.ndarray, k: int) -> tuple[float, float]:
+        """The two joint values that relation k ties, at q."""
+        return tuple(self._joint_value(q, w) for w in self._rel_index[k][0])
+
+    def relation_rows(self, q: np.ndarray, readings=None, with_readings: bool = True):
+        """Relation rows c (n_rel,) and dc/dv (n_rel, nv) at q; `readings` in `actuated` order.
+
+        with_readings=False keeps only the rows that involve no reading (for inverse kinematics,
+        where the driven readings are outputs)."""
+        keep = [k for k, (_, act) in enumerate(self._rel_index) if with_readings or act is None]
+        c = np.empty(len(keep))
+        jac = np.zeros((len(keep), self.nv))
+        for row, k in enumerate(keep):
+            rel, (idx, act) = self.relations[k], self._rel_index[k]
+            a = rel.coefficients()
+            c[row] = sum(ai * self._joint_value(q, w) for ai, w in zip(a, idx))
+            if act is not None:
+                c[row] -= rel.reading_scale * readings[act]
+            for ai, w in zip(a, idx):
+                jac[row, w[1]] += ai
+        return c, jac
+
+    def _drive(self, q: np.ndarray, values: np.ndarray) -> None:
+        """Put each driven joint where its relation holds at the current value of its partner."""
+        for rel, (idx, act) in zip(self.relations, self._rel_index):
+            if act is not None:
+                a = rel.coefficients()
+                q[idx[0][0]] = (rel.reading_scale * values[act] - a[1] * self._joint_value(q, idx[1])) / a[0]
 
     # ---- configurations ------------------------------------------------------------------
     def set_actuated(self, q: np.ndarray, values) -> np.ndarray:
@@ -132,18 +195,24 @@ class LoopSet:
             raise InputError(f"expected {len(self.actuated)} actuated readings "
                              f"({', '.join(self.actuated)}), got {values.size}", field="actuated")
         q = np.array(q, dtype=float)
-        for j, value in zip(self._act_joints, values):
+        for k in self._set:
+            j, value = self._act_joints[k], values[k]
             if j.nq == 1:
                 q[j.idx_q] = value
             else:  # continuous joint stored as (cos, sin)
                 q[j.idx_q], q[j.idx_q + 1] = np.cos(value), np.sin(value)
+        self._drive(q, values)
         return q
 
     def actuated_values(self, q: np.ndarray) -> np.ndarray:
-        """Readings (n_act,) of the actuated joints in configuration q."""
+        """Readings (n_act,) of the actuated joints in configuration q (driven ones through their relation)."""
         out = np.empty(len(self._act_joints))
         for k, j in enumerate(self._act_joints):
             out[k] = q[j.idx_q] if j.nq == 1 else np.arctan2(q[j.idx_q + 1], q[j.idx_q])
+        for rel, (idx, act) in zip(self.relations, self._rel_index):
+            if act is not None:
+                a = rel.coefficients()
+                out[act] = sum(ai * self._joint_value(q, w) for ai, w in zip(a, idx)) / rel.reading_scale
         return out
 
     # ---- constraint rows -----------------------------------------------------------------
@@ -302,7 +371,8 @@ def _loops_of(robot):
 
 
 def assemble(robot, model: pin.Model, actuated_values, q_guess=None, sample=None, tol: float = 1e-12,
-             max_iter: int = 50, data: pin.Data | None = None, singular_rcond: float = 1e-5) -> np.ndarray:
+             max_iter: int = 50, data: pin.Data | None = None, singular_rcond: float = 1e-5,
+             loops: LoopSet | None = None) -> np.ndarray:
     """Closed-chain forward kinematics: solve the passive joints for given actuated readings.
 
     robot           Robot whose `loops` describe the closures
@@ -310,15 +380,23 @@ def assemble(robot, model: pin.Model, actuated_values, q_guess=None, sample=None
     actuated_values (n_act,) readings in the order of robot.loops.actuated (m or rad)
     q_guess         (nq,) warm start (e.g. the previous sample's solution); neutral by default
     sample          label used in the error message
-    Returns q (nq,) with the actuated joints at the readings and every closure satisfied
-    (max |c| < tol). Raises AssemblyError when there is no assembly or it is singular.
+    loops           the LoopSet to use (default robot.loops; a calibrated copy carries fitted relations)
+    Returns q (nq,) with the actuated joints at the readings and every closure and joint relation
+    satisfied (max |c| < tol). Raises AssemblyError when there is no assembly or it is singular.
     """
-    loops = _loops_of(robot)
+    loops = _loops_of(robot) if loops is None else loops
     data = model.createData() if data is None else data
     q0 = pin.neutral(model) if q_guess is None else np.asarray(q_guess, dtype=float)
-    q0 = loops.set_actuated(q0, actuated_values)
-    return _solve(model, q0, lambda q: loops.constraint_jacobian(model, data, q), loops.passive_v,
-                  tol, max_iter, sample, "closed-chain assembly", singular_rcond)
+    values = np.asarray(actuated_values, dtype=float).reshape(-1)
+    q0 = loops.set_actuated(q0, values)
+    if not loops.relations:
+        rows = lambda q: loops.constraint_jacobian(model, data, q)  # noqa: E731
+    else:
+        def rows(q):
+            c, jac = loops.constraint_jacobian(model, data, q)
+            cr, jr = loops.relation_rows(q, values)
+            return np.concatenate([c, cr]), np.vstack([jac, jr])
+    return _solve(model, q0, rows, loops.solved_v, tol, max_iter, sample, "closed-chain assembly", singular_rcond)
 
 
 def inverse_kinematics(robot, model: pin.Model, frame: str, target: pin.SE3, q_guess=None, sample=None,
@@ -336,6 +414,9 @@ def inverse_kinematics(robot, model: pin.Model, frame: str, target: pin.SE3, q_g
     def residual_jacobian(q):
         if loops is not None:
             c, jc = loops.constraint_jacobian(model, data, q)
+            if loops.relations:   # couplings hold; a driven joint's reading is an output here
+                cr, jr = loops.relation_rows(q, with_readings=False)
+                c, jc = np.concatenate([c, cr]), np.vstack([jc, jr])
         else:
             pin.computeJointJacobians(model, data, q)
             pin.updateFramePlacements(model, data)

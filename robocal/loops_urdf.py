@@ -11,7 +11,8 @@ import numpy as np
 import pinocchio as pin
 
 from .errors import InputError
-from .loops import ROWS, _DRAKE_KINDS, _URDFPLUS_KINDS, Closure, Coupling, LoopSet
+from .joint_relations import Coupling, ScrewTransmission
+from .loops import ROWS, _DRAKE_KINDS, _URDFPLUS_KINDS, Closure, LoopSet
 
 log = logging.getLogger(__name__)
 
@@ -104,6 +105,29 @@ def _read_coupling(robot, element, source) -> Coupling:
                     _joint_of_link(robot, succ, element, source), ratio)
 
 
+def _read_screw(robot, element, source) -> ScrewTransmission:
+    """robocal's <screw_transmission name stroke_joint roll_joint lead sigma [nominal_lead gear_ratio]>."""
+    name = element.get("name") or ""
+    joints = []
+    for attr in ("stroke_joint", "roll_joint"):
+        j = element.get(attr)
+        if not j or not robot.model.existJointName(j):
+            raise InputError(f"screw_transmission '{name}': {attr} '{j}' is not a joint of the model",
+                             source=source, row=element.sourceline, field=attr)
+        if robot.model.joints[robot.model.getJointId(j)].nq != 1:
+            raise InputError(f"screw_transmission '{name}': {attr} '{j}' must be a 1-dof revolute or prismatic "
+                             "joint (not continuous)", source=source, row=element.sourceline, field=attr)
+        joints.append(j)
+    lead = float(_floats(element, "lead", 1, "", source)[0])
+    nominal = float(_floats(element, "nominal_lead", 1, str(lead), source)[0])
+    sigma = float(_floats(element, "sigma", 1, "", source)[0])
+    if lead <= 0 or nominal <= 0 or sigma not in (-1.0, 1.0):
+        raise InputError(f"screw_transmission '{name}': lead and nominal_lead must be > 0 and sigma +1 or -1",
+                         source=source, row=element.sourceline, field="lead" if sigma in (-1.0, 1.0) else "sigma")
+    gear = float(_floats(element, "gear_ratio", 1, "1", source)[0])
+    return ScrewTransmission(name, joints[0], joints[1], lead, int(sigma), nominal, gear)
+
+
 def _read_actuated(robot, tree, source, required: bool) -> list[str]:
     nodes = tree.findall("actuated")
     if len(nodes) > 1:
@@ -140,7 +164,8 @@ def read_loops(robot, tree):
         e for e in tree.findall("constraint") if (e.get("type") or "").lower() != "coupling"]
     couplings_xml = tree.findall("coupling") + [
         e for e in tree.findall("constraint") if (e.get("type") or "").lower() == "coupling"]
-    if not closures_xml and not couplings_xml:
+    screws_xml = tree.findall("screw_transmission")
+    if not closures_xml and not couplings_xml and not screws_xml:
         return None
     closures, seen = [], set()
     for element in closures_xml:
@@ -153,12 +178,25 @@ def read_loops(robot, tree):
         robot.add_frame(f1, parent=link1, placement=m1)
         robot.add_frame(f2, parent=link2, placement=m2)
         closures.append(Closure(name, kind, f1, f2, ROWS[kind], length, axis))
-    couplings = [_read_coupling(robot, e, source) for e in couplings_xml]
-    loops = LoopSet(robot.model, closures, _read_actuated(robot, tree, source, bool(closures)), couplings)
-    if closures and loops.n_rows < loops.passive_v.size:
-        raise InputError(f"the closures give {loops.n_rows} constraint rows for {loops.passive_v.size} "
-                         "passive degrees of freedom: the actuated readings do not determine the "
-                         "mechanism", source=source, field="actuated")
-    log.info("read %d closures (%d rows), %d actuated joints, %d couplings", len(closures), loops.n_rows,
-             len(loops.actuated), len(couplings))
+    relations = [_read_coupling(robot, e, source) for e in couplings_xml]
+    relations += [_read_screw(robot, e, source) for e in screws_xml]
+    names = [r.name for r in relations]
+    if len(set(names)) != len(names):
+        raise InputError("two couplings or screw transmissions share a name", source=source, field="name")
+    actuated = _read_actuated(robot, tree, source, bool(closures))
+    if not actuated and not closures:   # joints tied by couplings only: the successors follow the rest
+        followers = {r.successor_joint for r in relations if r.kind == "coupling"}
+        actuated = [robot.model.names[j] for j in range(1, robot.model.njoints)
+                    if robot.model.joints[j].nv == 1 and robot.model.names[j] not in followers]
+    try:
+        loops = LoopSet(robot.model, closures, actuated, relations)
+    except InputError as exc:
+        raise InputError(exc.reason, source=source, field=exc.field) from None
+    n_rows = loops.n_rows + loops.n_relation_rows
+    if closures and n_rows < loops.solved_v.size:
+        raise InputError(f"the closures and joint relations give {n_rows} constraint rows for "
+                         f"{loops.solved_v.size} passive degrees of freedom: the actuated readings do not "
+                         "determine the mechanism", source=source, field="actuated")
+    log.info("read %d closures (%d rows), %d actuated joints, %d joint relations", len(closures), loops.n_rows,
+             len(loops.actuated), len(relations))
     return loops

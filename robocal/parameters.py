@@ -9,6 +9,13 @@ Kinds and their names (components follow Pinocchio's twist order tx ty tz rx ry 
   base             base.tx .. base.rz          measurement frame -> robot root, right perturbation
   joint_compliance <joint>.compliance         elastic sag under gravity: q_link = q_read + offset - c * tau_g,
                                               tau_g the gravity torque of the nominal model (rad/(N m), m/N)
+  joint_backlash   <joint>.backlash           signed half-play: q_link = q_read + offset + b * d - c * tau_g, d in
+                                              {-1, 0, +1} the joint's approach direction at the sample
+                                              (robocal.approach; 0 = unknown, centre of the play); b < 0:
+                                              the link lags the reading (rad, m)
+  transmission     <relation>.lead / .hand / .ratio   a closed chain's joint relation (robocal.joint_relations):
+                                              screw lead (m), thread-hand sign (+-1, discrete: never varied),
+                                              coupling ratio
   auxiliary        <residual>.<name>           unknowns of a measurement set-up (plane, sphere centre, ...)
 
 Packing to and from the solver's vector happens here only (`free_values` / `set_free_values`).
@@ -24,7 +31,8 @@ import numpy as np
 from .errors import InputError
 
 COMPONENTS = ("tx", "ty", "tz", "rx", "ry", "rz")
-KINDS = ("joint_placement", "joint_offset", "frame_placement", "base", "auxiliary", "joint_compliance")
+KINDS = ("joint_placement", "joint_offset", "frame_placement", "base", "auxiliary", "joint_compliance",
+         "joint_backlash", "transmission")
 
 
 @dataclass
@@ -212,13 +220,15 @@ def offset_parameter(joint: str, unit: str = "rad") -> Parameter:
 
 
 def robot_parameters(robot, joints: list[str], preset: str = "full", frames: dict[str, tuple] | None = None,
-                     base: tuple | bool = False, compliance: bool | list[str] = False) -> ParameterSet:
+                     base: tuple | bool = False, compliance: bool | list[str] = False,
+                     backlash: bool | list[str] = False) -> ParameterSet:
     """Parameters for a preset over `joints`, plus chosen frame and base components.
 
     preset: "offsets" (one zero offset per joint), "full" (offset + 6 placement components per joint),
             "placements" (6 placement components, no offsets) or "none".
     frames: {frame_name: components} (True = all six), base: components or True,
-    compliance: True (every joint in `joints`) or a list of joints that get a compliance parameter.
+    compliance: True (every joint in `joints`) or a list of joints that get a compliance parameter;
+    backlash: the same for a backlash parameter (the samples then need approach directions).
     Joints of a prismatic kind get their offset in metres.
     """
     ps = ParameterSet()
@@ -242,6 +252,10 @@ def robot_parameters(robot, joints: list[str], preset: str = "full", frames: dic
         jm = robot.model.joints[robot.joint_id(j)]
         unit = "m/N" if jm.shortname().startswith("JointModelP") else "rad/(N m)"
         ps.add(Parameter(f"{j}.compliance", "joint_compliance", j, 0, unit=unit))
+    for j in (joints if backlash is True else list(backlash or [])):
+        jm = robot.model.joints[robot.joint_id(j)]
+        unit = "m" if jm.shortname().startswith("JointModelP") else "rad"
+        ps.add(Parameter(f"{j}.backlash", "joint_backlash", j, 0, unit=unit))
     for frame, comps in (frames or {}).items():
         robot.frame_id(frame)
         comps = COMPONENTS if comps is True else tuple(comps)

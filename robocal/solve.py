@@ -17,6 +17,8 @@ from typing import Callable
 import numpy as np
 import scipy.linalg
 
+from .errors import AssemblyError
+
 LOSSES = ("linear", "huber", "soft_l1")
 
 
@@ -109,8 +111,13 @@ def levenberg_marquardt(fun: Callable, x0: np.ndarray, lower=None, upper=None, l
             dx = np.linalg.lstsq(A, b, rcond=None)[0]
             x_new = np.clip(x + dx, lower, upper)
             dx = x_new - x
-            r_new, J_new, _ = fun(x_new)
-            w_new, cost_new = robust_weights(r_new, group, loss, f_scale)
+            try:
+                r_new, J_new, _ = fun(x_new)
+                w_new, cost_new = robust_weights(r_new, group, loss, f_scale)
+            except AssemblyError:
+                # a closed chain that does not assemble at the trial parameters: too long a step
+                r_new = J_new = w_new = None
+                cost_new = np.inf
             predicted = -(g @ dx) - 0.5 * np.sum((Jw @ dx) ** 2)
             if undamped:
                 undamped = False

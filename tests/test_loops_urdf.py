@@ -5,7 +5,10 @@ import pytest
 
 import robocal
 from robocal.errors import InputError
+from robocal.kinematics import ModelState
 from robocal.loops import assemble
+from robocal.parameters import Parameter, ParameterSet
+from robocal.testing import assert_frame_jacobians
 
 # A planar four-bar (crank 0.1, coupler 0.3, rocker 0.25, ground 0.3 m) closed at the coupler/rocker pin.
 TREE = """
@@ -102,6 +105,26 @@ def test_urdfplus_coupling_is_stored(tmp_path):
     assert (coupling.name, coupling.predecessor_joint, coupling.successor_joint) == \
         ("lead_screw", "nut_joint", "stroke")
     assert coupling.ratio == pytest.approx(0.005 / (2 * np.pi), rel=1e-9)
+
+
+def test_urdfplus_coupling_is_enforced_and_its_ratio_calibrated(tmp_path):
+    """Without <actuated>, the coupling's successor follows: q_stroke = ratio * q_nut, read from the nut."""
+    text = """<robot name="screw">
+  <link name="base"/><link name="nut"/><link name="carriage"/>
+  <joint name="nut_joint" type="revolute"><parent link="base"/><child link="nut"/><axis xyz="0 0 1"/>
+    <limit lower="-100" upper="100" effort="1" velocity="1"/></joint>
+  <joint name="stroke" type="prismatic"><parent link="base"/><child link="carriage"/><axis xyz="0 0 1"/>
+    <origin xyz="0.1 0 0" rpy="0 0.3 0"/><limit lower="0" upper="0.1" effort="1" velocity="1"/></joint>
+  <constraint name="lead_screw" type="coupling"><predecessor link="nut"/><successor link="carriage"/>
+    <ratio value="0.000795774715"/></constraint>
+</robot>"""
+    robot = load(tmp_path, text)
+    assert robot.loops.actuated == ["nut_joint"]
+    params = ParameterSet([Parameter("lead_screw.ratio", "transmission", "lead_screw", value=0.0008)])
+    ms = ModelState(robot, params, ["nut_joint"])
+    s = ms.sample(np.array([12.5]))
+    assert s.q[robot.model.joints[robot.joint_id("stroke")].idx_q] == pytest.approx(0.0008 * 12.5, rel=1e-12)
+    assert_frame_jacobians(robot, params, ["nut_joint"], np.array([12.5]), "carriage")
 
 
 @pytest.mark.parametrize("bad, field", [
