@@ -15,6 +15,7 @@ import numpy as np
 import pinocchio as pin
 import yaml
 
+from .approach import ApproachSpec, table_directions
 from .calibrate import CalibrationOptions
 from .data import ANGLE_UNITS, LENGTH_UNITS, Table, read_csv
 from .errors import InputError
@@ -112,7 +113,7 @@ def load_config(path: str | Path) -> Setup:
 def build_setup(root: Cfg, base_dir: Path, raw: dict) -> Setup:
     robot = _robot(root.child("robot"), base_dir)
     data = root.child("data")
-    data.check_keys(("csv", "joints", "units", "joint_units"))
+    data.check_keys(("csv", "joints", "units", "joint_units", "approach"))
     tables: dict[str, Table] = {}
 
     def table(name: str | None, where: Cfg) -> Table:
@@ -194,7 +195,9 @@ def build_setup(root: Cfg, base_dir: Path, raw: dict) -> Setup:
             sample_idx.append(samples[key])
         residuals.append(_residual(cls, s, tab, rows, np.array(sample_idx), length_unit, angle_unit))
     params = _parameters(root.child("parameters"), robot, joint_names, frames)
-    problem = Problem(robot, params, joint_names, np.array(values), residuals)
+    directions = _directions(data.child("approach"), root.child("parameters"), params, robot, tables, samples,
+                             joint_cols, jn)
+    problem = Problem(robot, params, joint_names, np.array(values), residuals, directions)
     _parameter_overrides(root.child("parameters"), params)
     options = _solver(root.child("solver"))
     out = root.child("output", {})
@@ -266,7 +269,8 @@ def _residual(cls, s: Cfg, tab: Table, rows, sample_idx, length_unit, angle_unit
 def _parameters(cfg: Cfg, robot, joint_names, frames) -> ParameterSet:
     if cfg.value is None:
         cfg = Cfg({}, cfg.path, cfg.source)
-    cfg.check_keys(("preset", "joints", "frames", "base", "compliance", "fix", "free", "initial", "priors", "bounds"))
+    cfg.check_keys(("preset", "joints", "frames", "base", "compliance", "backlash", "fix", "free", "initial",
+                    "priors", "bounds"))
     chain = [j for j in joint_names if any(j in robot.supporting_joints(f) for f in frames)]
     joints = cfg.get("joints", chain, types=list)
     fr = cfg.get("frames", {}, types=dict)
@@ -274,9 +278,58 @@ def _parameters(cfg: Cfg, robot, joint_names, frames) -> ParameterSet:
     base = cfg.get("base", False, types=(bool, list))
     try:
         return robot_parameters(robot, [str(j) for j in joints], cfg.get("preset", "full", types=str),
-                                frames_sel, base, cfg.get("compliance", False, types=(bool, list)))
+                                frames_sel, base, cfg.get("compliance", False, types=(bool, list)),
+                                cfg.get("backlash", False, types=(bool, list)))
     except InputError as exc:
         raise cfg.error(exc.reason) from None
+
+
+def _approach(cfg: Cfg, joint_names) -> ApproachSpec:
+    cfg.check_keys(("from", "sort_by", "threshold", "initial", "columns"))
+    spec = ApproachSpec(source=cfg.get("from", "order", types=str), sort_by=cfg.get("sort_by", types=str))
+    if spec.source not in ("order", "columns"):
+        raise cfg.error(f"unknown source '{spec.source}' (order, columns)", "from")
+    th = cfg.child("threshold", {})
+    th.check_keys(tuple(spec.threshold))
+    for k in spec.threshold:
+        spec.threshold[k] = float(th.get(k, spec.threshold[k], types=(int, float)))
+        if not spec.threshold[k] >= 0:
+            raise th.error("a threshold is a joint move (rad or m), zero or more", k)
+    for key in ("initial", "columns"):
+        given = cfg.get(key, {}, types=dict)
+        unknown = [j for j in given if j not in joint_names]
+        if unknown:
+            raise cfg.error(f"'{unknown[0]}' is not a joint of data.joints", key)
+        setattr(spec, key, {str(j): v if key == "initial" else str(v) for j, v in given.items()})
+    if any(v not in (-1, 0, 1) for v in spec.initial.values()):
+        raise cfg.error("initial directions are -1, 0 or 1", "initial")
+    return spec
+
+
+def _directions(cfg: Cfg, pcfg: Cfg, params: ParameterSet, robot, tables, samples, joint_cols, jn):
+    """(N, n_joints) approach directions of the samples, or None without a data.approach section."""
+    backlash = [p.target for p in params if p.kind == "joint_backlash"]
+    if cfg.value is None:
+        if backlash:
+            raise pcfg.error("backlash needs the approach direction of every sample: add data.approach "
+                             "(docs/config.md)", "backlash")
+        return None
+    joints = list(joint_cols)
+    spec = _approach(cfg, joints)
+    if spec.source == "columns":
+        missing = [j for j in backlash if j not in spec.columns]
+        if missing:
+            raise cfg.error(f"joint '{missing[0]}' has a backlash parameter but no direction column", "columns")
+    prismatic = [robot.model.joints[robot.joint_id(j)].shortname().startswith("JointModelP") for j in joints]
+    out = np.zeros((len(samples), len(joints)))
+    for file in dict.fromkeys(f for f, _ in samples):
+        tab = tables[file]
+        rows = np.arange(tab.n_rows)
+        per_row = table_directions(tab, _joint_values(robot, tab, joint_cols, rows, jn), joints, prismatic, spec)
+        for (f, r), i in samples.items():
+            if f == file:
+                out[i] = per_row[r]
+    return out
 
 
 def _parameter_overrides(cfg: Cfg, params: ParameterSet) -> None:

@@ -166,7 +166,7 @@ def cross_validate(problem: Problem, folds: list[np.ndarray], options: Calibrati
         train = np.setdiff1d(np.arange(n), fold)
         params = initial.copy()
         residuals = [subset_residual(r, train) for r in problem.residuals]
-        sub = Problem(problem.robot, params, problem.joint_names, problem.values, residuals)
+        sub = Problem(problem.robot, params, problem.joint_names, problem.values, residuals, problem.directions)
         result = calibrate(sub, options)
         values.append(params.values())
         ranks.append(result.selection.rank)

@@ -1,7 +1,8 @@
 """Problem: the robot, its parameters, the samples and the residual blocks, stacked for a solver.
 
 Rows are scaled to unit variance (row * weight / sigma); rows with weight 0 are dropped. The
-Jacobian columns are the free parameters, in `params.free_names` order.
+Jacobian columns are the free parameters, in `params.free_names` order. `directions` (N, n_joints), the
+joints' approach directions at each sample (robocal.approach), is needed by backlash parameters only.
 """
 from __future__ import annotations
 
@@ -37,10 +38,18 @@ class Block:
 class Problem:
     """joint_names: the joints each sample reads; values: (N, len(joint_names)) readings, SI."""
 
-    def __init__(self, robot, params: ParameterSet, joint_names, values, residuals: list[Residual]):
+    def __init__(self, robot, params: ParameterSet, joint_names, values, residuals: list[Residual],
+                 directions=None):
         self.robot, self.params = robot, params
         self.joint_names = list(joint_names)
         self.values = np.asarray(values, dtype=float).reshape(-1, len(self.joint_names))
+        self.directions = None if directions is None else np.asarray(directions, dtype=float)
+        if self.directions is not None and self.directions.shape != self.values.shape:
+            raise ValueError(f"directions have shape {self.directions.shape}, the readings {self.values.shape}")
+        backlash = [p.name for p in params if p.kind == "joint_backlash"]
+        if backlash and self.directions is None:
+            raise ValueError(f"backlash parameters ({backlash[0]}, ...) need the approach direction of every "
+                             "sample (Problem(..., directions=...); config: data.approach)")
         self.residuals = list(residuals)
         names = [r.name for r in self.residuals]
         if len(set(names)) != len(names):
@@ -76,7 +85,7 @@ class Problem:
     def states(self, ms: ModelState | None = None) -> "LazyStates":
         ms = ms or self.model_state()
         ms.warm_starts = self.warm_starts   # closed chains: start each assembly from the last solution
-        return LazyStates(ms, self.values)
+        return LazyStates(ms, self.values, self.directions)
 
     def aux_values(self, res: Residual) -> np.ndarray:
         return np.array([self.params[p.name].value for p in res.aux_parameters()])
@@ -125,15 +134,16 @@ class Problem:
 class LazyStates:
     """states[i] -> SampleState of sample i, built on first use for the current model."""
 
-    def __init__(self, ms: ModelState, values: np.ndarray):
-        self.ms, self.values = ms, values
+    def __init__(self, ms: ModelState, values: np.ndarray, directions: np.ndarray | None = None):
+        self.ms, self.values, self.directions = ms, values, directions
         self._states: dict[int, object] = {}
 
     def __getitem__(self, i):
         i = int(i)
         s = self._states.get(i)
         if s is None:
-            s = self._states[i] = self.ms.sample(self.values[i], label=i)
+            d = None if self.directions is None else self.directions[i]
+            s = self._states[i] = self.ms.sample(self.values[i], label=i, direction=d)
         return s
 
     def __len__(self):
