@@ -197,7 +197,7 @@ def scene_data(problem, result, params_before, ident: dict | None = None) -> dic
     models = {s: ModelState(robot, p, problem.joint_names) for s, p in param_sets.items()}
     for ms in models.values():            # closed chains: assemble from the fit's last solutions
         ms.warm_starts = dict(problem.warm_starts)
-    states = {s: LazyStates(ms, problem.values) for s, ms in models.items()}
+    states = {s: LazyStates(ms, problem.values, problem.directions) for s, ms in models.items()}
     n = len(problem.values)
     poses = {s: [[_pose7(states[s][i].pose(f)) for f in frame_names] for i in range(n)] for s in STATES}
     return {

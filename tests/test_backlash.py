@@ -116,3 +116,25 @@ def test_export_leaves_backlash_out_of_the_urdf():
         without[f"{j}.backlash"].value = 0.0
     assert any(perturbed[f"{j}.backlash"].value != 0 for j in joints)
     assert calibrated_urdf(robot, perturbed) == calibrated_urdf(robot, without)
+
+
+def test_scene_draws_the_residuals_the_fit_used_with_backlash():
+    """The viewer's model takes each sample's approach direction too (else it predicts at the play's centre)."""
+    from robocal.scene_data import scene_data
+
+    robot = load_example("ur5")
+    joints = robot.joint_names
+    rng = np.random.default_rng(9)
+    params = robot_parameters(robot, joints, "offsets", backlash=True)
+    values = random_configurations(robot, joints, 12, rng)
+    problem = _pose_problem(robot, params, joints, values, rng.choice([-1.0, 1.0], values.shape))
+    truth = params.copy()
+    for j in joints:
+        truth[f"{j}.backlash"].value = 3e-3
+    simulate_measurements(problem, truth, rng)
+    before = params.copy()
+    result = calibrate(problem)
+    scene = scene_data(problem, result, before)
+    (block,) = scene["blocks"]
+    drawn = np.array(block["residual_after"]).reshape(-1)
+    np.testing.assert_allclose(drawn, problem.evaluate().raw, atol=1e-12)
