@@ -105,3 +105,19 @@ def test_fd_mode_agrees_with_analytic():
     kin = FloatingNutKinematics(reference_fixture())
     p = random_poses(kin.geometry, 5, seed=25)
     assert np.abs(kin.jacobian(p, mode="fd") - kin.jacobian(p)).max() < FD_TOL
+
+
+@pytest.mark.parametrize("geometry", [reference_fixture(), tilted_geometry(), tilted_geometry("XYZ-moving")],
+                         ids=["fixture", "tilted", "tilted-XYZ"])
+def test_single_pose_fk_jacobian_matches_the_analytic_one(geometry):
+    """The lean single-pose FK builds J_c and J_l from quadratic forms in [R, t, 1] (floating_nut_fk.py):
+    they must equal the batch analytic matrices, and its residual the compensated IK."""
+    kin = FloatingNutKinematics(geometry)
+    solver = kin._single_pose_solver()
+    lengths = kin.ik(geometry.p0)
+    for p in random_poses(geometry, 10, seed=26):
+        Qm, q, l, x, y, dR, e = solver._evaluate(p.tolist(), lengths, True)
+        np.testing.assert_allclose(e, lengths - kin.ik(p), atol=1e-14)
+        np.testing.assert_allclose(solver._jacobian(Qm, q, l, x, y, dR, True), kin.jacobian(p), atol=1e-13)
+        Jl = kin.length_and_roll_jacobians(p)[0]
+        np.testing.assert_allclose(solver._jacobian(Qm, q, l, x, y, dR, False), Jl, atol=1e-13)

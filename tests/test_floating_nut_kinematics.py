@@ -239,3 +239,60 @@ def test_bad_pose_input(kin):
     assert info.value.row == 1
     with pytest.raises(InputError, match="jacobian"):
         kin.fk(kin.home_lengths, jacobian="broyden")
+
+
+@pytest.mark.parametrize("options", [dict(), dict(jacobian="uncompensated"), dict(compensate=False)],
+                         ids=["full", "quasi", "uncompensated"])
+def test_single_pose_fk_follows_the_batch_iterates(kin, options):
+    """One pose at a time takes the lean path (floating_nut_fk.py): same iterations and histories as
+    the batch Newton, poses equal to round-off, cold and warm."""
+    poses = random_poses(kin.geometry, 200, seed=12)
+    lengths = kin.ik(poses, compensate=options.get("compensate", True))
+    for p_init in (None, poses + 1e-4):
+        batch = kin.fk(lengths, p_init=p_init, **options)
+        for k in range(200):
+            one = kin.fk(lengths[k], p_init=None if p_init is None else p_init[k], **options)
+            assert one.iterations == batch.iterations[k]
+            assert np.abs(one.pose - batch.pose[k]).max() < 1e-14
+            assert np.abs(one.pose - poses[k]).max() < 1e-12 and one.residual < 1e-12
+            assert len(one.history) == one.iterations + 1 and one.history[-1] == one.residual
+    assert kin.fk(lengths[0], **options).iterations <= (4 if not options else 6)
+
+
+def test_single_pose_fk_errors_name_the_sample(kin):
+    lengths = kin.ik(table_pose("P5"))
+    with pytest.raises(FKNotConverged, match="sample 0 did not converge in 2 iterations"):
+        kin.fk(lengths, max_iter=2)
+    with pytest.raises(FKNotConverged, match="sample 0 did not converge in 0 iterations"):
+        kin.fk(lengths, max_iter=0)
+    assert kin.fk(kin.home_lengths).iterations == 0
+    # lengths whose uncompensated solution puts leg 3's base axis along its strut
+    g = reference_fixture()
+    axes = g.base_axes.copy()
+    axes[2] = strut_axis(g, table_pose("P5"), leg=2)
+    bad = FloatingNutKinematics(g.with_changes(base_axes=axes))
+    for lengths in (bad.effective_lengths(table_pose("P5")), bad.effective_lengths(table_pose("P5")[None])):
+        with pytest.raises(SingularHookeError, match="leg 3"):
+            bad.fk(lengths, compensate=False)
+
+
+def test_single_pose_fk_condition_warning(kin, caplog):
+    lengths = kin.ik(table_pose("P4"))
+    with caplog.at_level("WARNING"):
+        kin.fk(lengths)
+        assert not caplog.records
+        kin.fk(lengths, warn_condition=1.0)     # cond(J_c) ~ 5 here: over a threshold of 1
+    assert "condition number" in caplog.text
+
+
+def test_single_pose_rotations_match_the_geometry_conventions():
+    from robocal.mechanisms.floating_nut_fk import ROTATIONS
+    rng = np.random.default_rng(13)
+    for euler, rotation in ROTATIONS.items():
+        for angles in rng.uniform(-0.5, 0.5, (5, 3)):
+            R, *dR = rotation(*angles)
+            np.testing.assert_allclose(np.reshape(R, (3, 3)), rotation_matrices(angles, euler), atol=1e-15)
+            for k in range(3):
+                h = np.eye(3)[k] * 1e-6
+                fd = (rotation_matrices(angles + h, euler) - rotation_matrices(angles - h, euler)) / 2e-6
+                np.testing.assert_allclose(np.reshape(dR[k], (3, 3)), fd, atol=1e-9)

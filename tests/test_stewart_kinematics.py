@@ -9,7 +9,7 @@ import pytest
 import robocal
 from robocal.errors import AssemblyError, InputError
 from robocal.loops import assemble, inverse_kinematics as generic_ik
-from robocal.mechanisms import stewart as st
+from robocal.mechanisms import stewart as st, stewart_fk
 
 URDF = Path(__file__).resolve().parents[1] / "urdf"
 GEOMETRIES = {"6_6": st.StewartGeometry.spec_6_6, "3_3": st.StewartGeometry.spec_3_3}
@@ -186,3 +186,47 @@ def test_rotation_convention_is_rx_ry_rz():
     batch = st.rotation_xyz(np.array([[a, b, c], [0, 0, 0]]))
     np.testing.assert_allclose(batch[0], rx @ ry @ rz, atol=1e-15)
     np.testing.assert_allclose(batch[1], np.eye(3), atol=1e-15)
+
+
+def test_newton_tables_give_strut_vectors_and_jacobian(machine):
+    """One product of the (54, 16) table with the inverse pose gives l_j and 2 J_u (stored transposed)."""
+    geometry, _ = machine
+    lift = geometry._fk.lift
+    R, p = st.random_workspace_poses(geometry, 5, np.random.default_rng(6))
+    for k in range(5):
+        M = pin.SE3(R[k], p[k])
+        out = lift @ M.inverse().homogeneous.ravel()
+        d = st.local_strut_vectors(geometry, R[k:k + 1], p[k:k + 1])[0]
+        np.testing.assert_allclose(out[:18].reshape(6, 3), d, atol=1e-15)
+        unnormalised = st.ik_jacobian(geometry, M) * np.linalg.norm(d, axis=1)[:, None]
+        np.testing.assert_allclose(out[18:].reshape(6, 6).T, 2 * unnormalised, atol=1e-14)
+
+
+def test_single_fk_newton_solves_and_strut_residual(machine, monkeypatch):
+    """Cold start: at most 4 Newton solves after the precomputed home step; the returned pose meets
+    the strut-length tolerance; an exact guess is returned after one factorisation (singularity check)."""
+    geometry, _ = machine
+    R, p = st.random_workspace_poses(geometry, 300, np.random.default_rng(7))
+    s = st.inverse_kinematics_batch(geometry, R, p)
+    calls = []
+    solve = stewart_fk.dgesv
+    monkeypatch.setattr(stewart_fk, "dgesv", lambda *a: calls.append(1) or solve(*a))
+    worst = 0.0
+    for k in range(300):
+        calls.clear()
+        pose = st.forward_kinematics(geometry, s[k], sample=k)
+        assert len(calls) <= 4
+        worst = max(worst, np.linalg.norm(st.inverse_kinematics(geometry, pose) - s[k]))
+    assert worst < 1e-12
+    calls.clear()
+    exact = pin.SE3(R[0], p[0])
+    assert pose_error(st.forward_kinematics(geometry, s[0], guess=exact), exact) < 1e-15
+    assert len(calls) == 1
+
+
+def test_non_positive_strut_length_raises_naming_the_sample(machine):
+    geometry, _ = machine
+    s = st.inverse_kinematics(geometry, geometry.home_pose)
+    s[2] = -geometry.offsets[2] - 0.1    # o + s < 0: |l| = o + s has no solution (its square would)
+    with pytest.raises(AssemblyError, match="sample 4: .*non-positive"):
+        st.forward_kinematics(geometry, s, sample=4)

@@ -14,6 +14,7 @@ Everything is vectorised over poses (leading axis N) and legs (6); a single pose
 from __future__ import annotations
 
 import logging
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -149,6 +150,7 @@ class FloatingNutKinematics:
         self._l0 = home.length[0]
         self._s0 = home.s[0]
         self._s0_plat = home.s[0] @ home.R[0]             # R0^T s0, home strut axis in {O_m}
+        self._single = None                               # single-pose FK tables, see fk
 
     # ---- home values ------------------------------------------------------------------
     @property
@@ -364,10 +366,14 @@ class FloatingNutKinematics:
         kinematics), so the pose error is at round-off rather than |J^-1| tol. `iterations` counts
         Newton updates with a fresh matrix. Raises FKNotConverged (naming the sample) otherwise;
         logs a warning when cond(J) near the solution exceeds warn_condition.
+        One pose with an analytic matrix goes to a lean solver with the same iterates (floating_nut_fk.py).
         """
-        L, single = _as_lengths(lengths)
         if jacobian not in JACOBIAN_MODES:
             raise InputError(f"jacobian must be one of {JACOBIAN_MODES}, got '{jacobian}'", field="jacobian")
+        lean = None if jacobian == "fd" else _single_pose_inputs(lengths, p_init)
+        if lean is not None:
+            return self._single_pose_solver().solve(*lean, compensate, jacobian, tol, max_iter, warn_condition)
+        L, single = _as_lengths(lengths)
         P = np.array(np.broadcast_to(self.geometry.p0 if p_init is None else p_init, L.shape), dtype=float)
         _as_poses(P)
         n = L.shape[0]
@@ -424,6 +430,13 @@ class FloatingNutKinematics:
             return FKResult(P[0], int(iterations[0]), float(residual[0]), history)
         return FKResult(P, iterations, residual, history)
 
+    def _single_pose_solver(self):
+        """The lean single-pose FK of this geometry, built on first use."""
+        if self._single is None:
+            from .floating_nut_fk import SinglePoseFK   # imports this module: deferred
+            self._single = SinglePoseFK(self)
+        return self._single
+
     def _newton_matrix(self, t, P, compensate, jacobian):
         if jacobian == "fd":
             return self._fd_jacobian(P, compensate)
@@ -449,6 +462,20 @@ class FloatingNutKinematics:
         if np.any(g.lead == 0):
             raise InputError("a zero lead cannot be converted to motor angles", field="lead")
         return psi0 + (np.asarray(lengths, dtype=float) - self._l0) * TWO_PI * g.gear_ratio / g.lead
+
+
+def _single_pose_inputs(lengths, p_init):
+    """(lengths (6,), p_init (6,) or None) as floats when both are one finite pose, else None (the
+    batch path then handles them, and reports bad input)."""
+    L = np.asarray(lengths, dtype=float)
+    if L.shape != (N_LEGS,) or not math.isfinite(sum(L.tolist())):
+        return None
+    if p_init is None:
+        return L, None
+    p = np.asarray(p_init, dtype=float)
+    if p.shape != (6,) or not math.isfinite(sum(p.tolist())):
+        return None
+    return L, p.tolist()
 
 
 def _subset(t: _PoseTerms, mask) -> _PoseTerms:

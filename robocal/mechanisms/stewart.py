@@ -1,4 +1,4 @@
-"""Stewart (6-UPS) platforms: geometry, URDF writer and closed-form fast path.
+"""Stewart (6-UPS) platforms: geometry, closed-form IK and URDF writer (Newton FK: stewart_fk.py).
 
 Geometry (SI; spec seed-000 §2.3): base joints N (n_b, 3) in the world/reference frame, platform
 joints T (n_p, 3) in the platform frame, and one origin offset o_j per strut, so that for strut j
@@ -28,9 +28,9 @@ from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
-from scipy.linalg.lapack import dgesv
-
-from ..errors import AssemblyError, InputError
+from ..errors import InputError
+# the FK lives in its own module; it is re-exported here, where callers look for it
+from .stewart_fk import forward_kinematics, forward_kinematics_batch, newton_tables  # noqa: F401
 
 @dataclass(frozen=True)
 class StewartGeometry:
@@ -82,17 +82,8 @@ class StewartGeometry:
             big[6 * j:6 * j + 3, 3 * j:3 * j + 3] = np.eye(3)
             big[6 * j + 3:6 * j + 6, 3 * j:3 * j + 3] = [[0, -t[2], t[1]], [t[2], 0, -t[0]], [-t[1], t[0], 0]]
         object.__setattr__(self, "_jac_map", big)
-        # The first Newton step from the home pose is a fixed linear map of the strut lengths:
-        # step = K (l_target - l_home), with K = J_home^-1 diag(l_home) (J_home the unnormalised Jacobian).
-        d = (self.home - self.leg_base) + self.leg_platform
-        l_home = np.sqrt((d * d).sum(1))
-        j_home = (big @ d.ravel()).reshape(6, 6)
-        try:
-            k_home = np.linalg.solve(j_home, np.diag(l_home))
-        except np.linalg.LinAlgError:
-            k_home = None   # singular home pose: FK starts with plain Newton steps
-        object.__setattr__(self, "_home_lengths", l_home)
-        object.__setattr__(self, "_home_step", k_home)
+        # constant tables of the single-pose FK (stewart_fk.py)
+        object.__setattr__(self, "_fk", newton_tables(self.leg_base, self.leg_platform, self.home, big))
 
     # per-strut copies, leg_base (6, 3) N_b(j) and leg_platform (6, 3) T_e(j), are set in
     # __post_init__ (the code never assumes that joints are distinct per strut)
@@ -174,130 +165,6 @@ def ik_jacobian(geometry: StewartGeometry, pose: pin.SE3) -> np.ndarray:
     """(6, 6) derivative of the strut coordinates w.r.t. a LOCAL right twist [v; w] of the platform."""
     d = (pose.translation - geometry.leg_base) @ pose.rotation + geometry.leg_platform
     return (geometry._jac_map @ d.ravel()).reshape(6, 6) / np.sqrt((d * d).sum(1))[:, None]
-
-
-# ---- forward kinematics (Newton on the closed-form IK) -----------------------------------------
-QUADRATIC_FINISH = 1e-7   # m: strut-length error below which one more Newton step lands inside 1e-12
-WELL_CONDITIONED = 1e-3   # smallest / largest LU pivot of the IK Jacobian above which that finish is trusted
-
-
-def forward_kinematics(geometry: StewartGeometry, s, guess: pin.SE3 | None = None, tol: float = 1e-12,
-                       max_iter: int = 30, sample=None, singular_ratio: float = 1e-5) -> pin.SE3:
-    """Platform pose (world SE3) from strut coordinates s (6,) by damped Newton on the IK.
-
-    guess: warm start (e.g. the previous sample's pose), home pose by default. Converges when the
-    strut-length error has 2-norm < tol (m). Raises AssemblyError naming `sample` if the struts
-    cannot be assembled, or if the pose is singular (Hadamard ratio |det J| / prod |row_j| of the
-    IK Jacobian below singular_ratio).
-    """
-    # Written for speed (each numpy call costs ~1 us): no temporaries that can be avoided,
-    # LAPACK dgesv directly, unnormalised Jacobian rows (solve Ju x = -|l| e).
-    N, T, big = geometry.leg_base, geometry.leg_platform, geometry._jac_map
-    target = np.asarray(s, dtype=float) + geometry.offsets
-    prev, step, alpha, best, lu = None, None, 1.0, np.inf, None
-    if guess is None and geometry._home_step is not None:
-        # cold start: the first Newton step from home, precomputed (see StewartGeometry)
-        e0 = geometry._home_lengths - target
-        R0, p0 = np.eye(3), geometry.home.copy()
-        step = geometry._home_step @ (-e0)
-        prev, best = (R0, p0), e0 @ e0
-        R, p = pin.exp3(step[3:]), p0 + step[:3]
-    elif guess is None:
-        R, p = np.eye(3), geometry.home.copy()
-    else:
-        R, p = guess.rotation.copy(), guess.translation.copy()
-    tol2 = tol * tol
-    label = f"sample {sample}" if sample is not None else "the given strut coordinates"
-    for _ in range(max_iter):
-        d = (p - N) @ R + T
-        lengths = np.sqrt((d * d).sum(1))
-        e = lengths - target
-        cost = e @ e
-        if cost < tol2:
-            if lu is None:  # converged at the start: factor once, for the singularity check
-                ju = (big @ d.ravel()).reshape(6, 6)
-                lu = dgesv(ju, e)[0]
-            # Hadamard ratio of the last factored Jacobian (<= 1e-6 away: same conditioning)
-            if np.prod(np.abs(np.diag(lu)) / np.sqrt((ju * ju).sum(1))) < singular_ratio:
-                raise AssemblyError(f"{label}: Stewart FK converged to a singular pose")
-            return pin.SE3(R, p)
-        if cost >= best:  # no decrease: halve the last step from the last good pose
-            alpha *= 0.5
-            if alpha < 1e-6:
-                break
-            R0, p0 = prev
-            R, p = R0 @ pin.exp3(alpha * step[3:]), p0 + R0 @ (alpha * step[:3])
-            continue
-        best, alpha, prev = cost, 1.0, (R, p)
-        ju = (big @ d.ravel()).reshape(6, 6)
-        lu, _piv, step, info = dgesv(ju, -lengths * e)
-        if info != 0:
-            raise AssemblyError(f"{label}: Stewart FK met a singular pose (struts cannot fix the platform)")
-        R, p = R @ pin.exp3(step[3:]), p + R @ step[:3]
-        if cost < QUADRATIC_FINISH ** 2 and tol >= 1e-12:
-            # Newton is quadratic where the Jacobian is well conditioned: from |e| < 1e-7 m the full step
-            # leaves ~|e|^2 / l ~ 1e-14 m, 100 times inside tol, so the confirming evaluation is skipped.
-            # Near a singular pose convergence is slow and the loop goes on (and reports it).
-            pivots = np.abs(lu.diagonal())
-            if pivots.min() > WELL_CONDITIONED * pivots.max():
-                return pin.SE3(R, p)
-    raise AssemblyError(f"{label}: Stewart FK did not converge (strut error {np.sqrt(cost):.3g} m); the "
-                        "strut coordinates are out of reach or singular")
-
-
-def _exp3_batch(w: np.ndarray) -> np.ndarray:
-    """Rodrigues' formula for rotation vectors w (K, 3) -> (K, 3, 3)."""
-    theta2 = np.einsum("ki,ki->k", w, w)
-    theta = np.sqrt(theta2)
-    small = theta < 1e-6
-    safe = np.where(small, 1.0, theta)
-    a = np.where(small, 1.0 - theta2 / 6.0, np.sin(safe) / safe)
-    b = np.where(small, 0.5 - theta2 / 24.0, (1.0 - np.cos(safe)) / (safe * safe))
-    K = np.zeros((w.shape[0], 3, 3))
-    K[:, 0, 1], K[:, 0, 2], K[:, 1, 2] = -w[:, 2], w[:, 1], -w[:, 0]
-    K[:, 1, 0], K[:, 2, 0], K[:, 2, 1] = w[:, 2], -w[:, 1], w[:, 0]
-    return np.eye(3) + a[:, None, None] * K + b[:, None, None] * (K @ K)
-
-
-def forward_kinematics_batch(geometry: StewartGeometry, s: np.ndarray, R0: np.ndarray | None = None,
-                             p0: np.ndarray | None = None, tol: float = 1e-12, max_iter: int = 30,
-                             strict: bool = True):
-    """Vectorised Newton FK for K samples of strut coordinates s (K, 6).
-
-    R0 (K, 3, 3), p0 (K, 3): warm starts (home pose by default). Returns R (K, 3, 3), p (K, 3) and
-    converged (K,) bool (strut-length error 2-norm < tol). With strict=True a sample that does not
-    converge raises AssemblyError naming it (no damping here: use `forward_kinematics` for hard cases).
-    """
-    s = np.atleast_2d(np.asarray(s, dtype=float))
-    k = s.shape[0]
-    R = np.broadcast_to(np.eye(3), (k, 3, 3)).copy() if R0 is None else np.array(R0, dtype=float)
-    p = np.broadcast_to(geometry.home, (k, 3)).copy() if p0 is None else np.array(p0, dtype=float)
-    target = s + geometry.offsets
-    active = np.arange(k)
-    for it in range(max_iter + 1):
-        Ra, pa = R[active], p[active]
-        d = local_strut_vectors(geometry, Ra, pa)
-        lengths = np.sqrt(np.einsum("kji,kji->kj", d, d))
-        e = lengths - target[active]
-        todo = np.einsum("kj,kj->k", e, e) >= tol * tol
-        if not todo.all():
-            active, d, lengths, e, Ra, pa = active[todo], d[todo], lengths[todo], e[todo], Ra[todo], pa[todo]
-        if active.size == 0 or it == max_iter:
-            break
-        ju = (d.reshape(-1, 18) @ geometry._jac_map.T).reshape(-1, 6, 6)
-        rhs = -(lengths * e)[..., None]
-        try:
-            step = np.linalg.solve(ju, rhs)[..., 0]
-        except np.linalg.LinAlgError:  # a singular sample: least squares, it stays unconverged
-            step = (np.linalg.pinv(ju) @ rhs)[..., 0]
-        p[active] = pa + (Ra @ step[:, :3, None])[..., 0]
-        R[active] = Ra @ _exp3_batch(step[:, 3:])
-    converged = np.ones(k, dtype=bool)
-    converged[active] = False
-    if strict and active.size:
-        raise AssemblyError(f"samples {active[:10].tolist()}{' ...' if active.size > 10 else ''}: Stewart FK "
-                            "did not converge (strut coordinates out of reach or singular)")
-    return R, p, converged
 
 
 # ---- URDF ------------------------------------------------------------------------------------
