@@ -146,7 +146,7 @@ class ModelState:
             self.driven_cols += [(k, c, self.P_offset[iv, c], "offset") for c in np.flatnonzero(self.P_offset[iv])]
             self.P_offset[iv] = 0.0
         for name in ("compliance", "backlash"):
-            cols = getattr(self, f"{name}_cols", [])
+            cols = getattr(self, f"{name}_cols")
             self.driven_cols += [(k, c, w, name) for k, iv, c, w in cols if k in self.driven_reads]
             cols[:] = [e for e in cols if e[0] not in self.driven_reads]
 
