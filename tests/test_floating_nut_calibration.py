@@ -23,7 +23,7 @@ from robocal.parameters import Parameter, ParameterSet
 from robocal.problem import Problem
 from robocal.residuals import PoseResidual
 from robocal.simulate import simulate_measurements
-from robocal.testing import assert_calibration_recovers, assert_problem_jacobian
+from robocal.testing import assert_calibration_recovers, assert_frame_jacobians, assert_problem_jacobian
 
 URDF = Path(__file__).resolve().parents[1] / "urdf" / "floating_nut_hexapod.urdf"
 SIGMA = (1e-5, 1e-5)          # tracker: 10 um, 10 urad
@@ -94,18 +94,11 @@ def test_parameter_jacobian_through_screw_rows_matches_finite_differences(robot)
     assert_problem_jacobian(problem)
 
 
-def test_joint_jacobian_through_screw_rows_matches_finite_differences(robot):
+def test_frame_jacobians_through_screw_rows_match_finite_differences(robot):
+    """Readings (through the screw rows) and leads, at one sample, with robocal.testing's own check."""
     _, readings = workspace(1, np.random.default_rng(4))
-    ms = ModelState(robot, ParameterSet(), robot.loops.actuated)
-    u = readings[0]
-    J = ms.sample(u).frame_joint_jacobian("platform")
-    M0, h = ms.sample(u).pose("platform"), 1e-6
-    for k in range(6):
-        du = np.zeros(6)
-        du[k] = h
-        fd = (pin.log6(M0.actInv(ms.sample(u + du).pose("platform"))).vector
-              - pin.log6(M0.actInv(ms.sample(u - du).pose("platform"))).vector) / (2 * h)
-        np.testing.assert_allclose(J[:, k], fd, atol=1e-7)
+    params = floating_nut_parameters(robot, base_anchors=False, platform_anchors=False)
+    assert_frame_jacobians(robot, params, robot.loops.actuated, readings[0], "platform")
 
 
 def test_calibration_recovers_centres_zeros_and_leads(robot):
