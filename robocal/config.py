@@ -269,7 +269,7 @@ def _residual(cls, s: Cfg, tab: Table, rows, sample_idx, length_unit, angle_unit
 def _parameters(cfg: Cfg, robot, joint_names, frames) -> ParameterSet:
     if cfg.value is None:
         cfg = Cfg({}, cfg.path, cfg.source)
-    cfg.check_keys(("preset", "joints", "frames", "base", "compliance", "backlash", "fix", "free", "initial",
+    cfg.check_keys(("preset", "joints", "frames", "base", "compliance", "backlash", "tilt", "fix", "free", "initial",
                     "priors", "bounds"))
     chain = [j for j in joint_names if any(j in robot.supporting_joints(f) for f in frames)]
     joints = cfg.get("joints", chain, types=list)
@@ -279,7 +279,8 @@ def _parameters(cfg: Cfg, robot, joint_names, frames) -> ParameterSet:
     try:
         return robot_parameters(robot, [str(j) for j in joints], cfg.get("preset", "full", types=str),
                                 frames_sel, base, cfg.get("compliance", False, types=(bool, list)),
-                                cfg.get("backlash", False, types=(bool, list)))
+                                cfg.get("backlash", False, types=(bool, list)),
+                                cfg.get("tilt", False, types=(bool, list)))
     except InputError as exc:
         raise cfg.error(exc.reason) from None
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
+from .joint_tilt import JointTilts
 from .parameters import COMPONENTS, ParameterSet
 from .robot import ConfigurationMap
 
@@ -51,9 +52,12 @@ class ModelState:
             read_v[name] = (k, self.model.joints[robot.joint_id(name)].idx_v)
         self._read_v_index = np.array([read_v[n][1] for n in self.joint_names], dtype=int)
         groups: dict[tuple[str, str], None] = {}
+        tilts = []
         for p in params:
             if p.kind in ("joint_placement", "frame_placement", "base"):
                 groups[(p.kind, p.target)] = None
+            elif p.kind == "joint_tilt":
+                tilts.append((robot.joint_id(p.target), p.value, col.get(p.name, [])))
             elif p.kind in ("joint_compliance", "joint_offset", "joint_backlash"):
                 if p.target not in read_v:
                     raise ValueError(f"{p.kind.split('_')[1]} parameter {p.name}: joint '{p.target}' is not read "
@@ -102,6 +106,10 @@ class ModelState:
         self._qmap = ConfigurationMap(robot, self.joint_names)
         if self.compliance.any() or self.compliance_cols:
             self._gdata = nominal.createData()
+        # the model the samples run: the calibrated one, or a copy whose tilted joints move per sample
+        self.tilts = JointTilts(robot, self.model, tilts) if tilts else None
+        self.kin_model = self.model.copy() if tilts else self.model
+        self.kin_data = self.kin_model.createData() if tilts else self.data
         self.loops = robot.loops
         self.warm_starts: dict = {}      # sample label -> last assembled q (shared across parameter updates)
         if self.loops is not None:
@@ -197,6 +205,7 @@ class SampleState:
         self.ms, self.values, self.label = ms, values, label
         self.direction = np.zeros(len(values)) if direction is None else np.asarray(direction, dtype=float)
         self.tau = ms.gravity_torque(values) if hasattr(ms, "_gdata") else None
+        self.moments = ms.tilts.moments(ms._qmap(values)) if ms.tilts else None
         # the link sits b on the approach side of the reading; the gravity load stays that of the reading
         self.q = ms.configuration(values + ms.backlash * self.direction, q_guess, label, self.tau)
         self._cache: dict[int, tuple] = {}
@@ -205,7 +214,9 @@ class SampleState:
     def _activate(self):
         ms = self.ms
         if ms._owner is not self:
-            pin.computeJointJacobians(ms.model, ms.data, self.q)
+            if ms.tilts:
+                ms.tilts.apply(ms.kin_model, self.moments)
+            pin.computeJointJacobians(ms.kin_model, ms.kin_data, self.q)
             ms._owner = self
 
     def _frame(self, frame) -> tuple:
@@ -214,8 +225,8 @@ class SampleState:
         if hit is None:
             self._activate()
             ms = self.ms
-            oMf = pin.updateFramePlacement(ms.model, ms.data, fid).copy()
-            Jq = pin.getFrameJacobian(ms.model, ms.data, fid, LOCAL).reshape(6, -1).copy()
+            oMf = pin.updateFramePlacement(ms.kin_model, ms.kin_data, fid).copy()
+            Jq = pin.getFrameJacobian(ms.kin_model, ms.kin_data, fid, LOCAL).reshape(6, -1).copy()
             hit = [ms.base * oMf, oMf, Jq, None]
             self._cache[fid] = hit
         return hit
@@ -259,9 +270,11 @@ class SampleState:
                 J[:, c] -= w * hit[2][:, iv] * self.tau[k]
             for k, iv, c, w in ms.backlash_cols:            # d q_link / d b = d
                 J[:, c] += w * hit[2][:, iv] * self.direction[k]
-            if ms.has_joint_params:
-                reg = pin.computeFrameKinematicRegressor(ms.model, ms.data, fid, LOCAL)
+            if ms.has_joint_params or ms.tilts:
+                reg = pin.computeFrameKinematicRegressor(ms.kin_model, ms.kin_data, fid, LOCAL)
                 J += reg @ ms.P_joint
+                if ms.tilts:
+                    J += ms.tilts.jacobian(reg, ms.P_joint, self.moments)
             if fid in ms.P_frame:
                 J += ms.P_frame[fid]
             if ms.has_base_params:

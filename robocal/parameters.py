@@ -13,6 +13,8 @@ Kinds and their names (components follow Pinocchio's twist order tx ty tz rx ry 
                                               {-1, 0, +1} the joint's approach direction at the sample
                                               (robocal.approach; 0 = unknown, centre of the play); b < 0:
                                               the link lags the reading (rad, m)
+  joint_tilt       <joint>.tilt               bearing/column bending: the child side rotates by -t * M_perp, M_perp the
+                                              gravity moment across the joint axis (robocal.joint_tilt; rad/(N m))
   transmission     <relation>.lead / .hand / .ratio   a closed chain's joint relation (robocal.joint_relations):
                                               screw lead (m), thread-hand sign (+-1, discrete: never varied),
                                               coupling ratio
@@ -32,7 +34,7 @@ from .errors import InputError
 
 COMPONENTS = ("tx", "ty", "tz", "rx", "ry", "rz")
 KINDS = ("joint_placement", "joint_offset", "frame_placement", "base", "auxiliary", "joint_compliance",
-         "joint_backlash", "transmission")
+         "joint_backlash", "joint_tilt", "transmission")
 
 
 @dataclass
@@ -221,14 +223,15 @@ def offset_parameter(joint: str, unit: str = "rad") -> Parameter:
 
 def robot_parameters(robot, joints: list[str], preset: str = "full", frames: dict[str, tuple] | None = None,
                      base: tuple | bool = False, compliance: bool | list[str] = False,
-                     backlash: bool | list[str] = False) -> ParameterSet:
+                     backlash: bool | list[str] = False, tilt: bool | list[str] = False) -> ParameterSet:
     """Parameters for a preset over `joints`, plus chosen frame and base components.
 
     preset: "offsets" (one zero offset per joint), "full" (offset + 6 placement components per joint),
             "placements" (6 placement components, no offsets) or "none".
     frames: {frame_name: components} (True = all six), base: components or True,
     compliance: True (every joint in `joints`) or a list of joints that get a compliance parameter;
-    backlash: the same for a backlash parameter (the samples then need approach directions).
+    backlash: the same for a backlash parameter (the samples then need approach directions);
+    tilt: the same for a tilt compliance (bending across the joint axis under the gravity moment).
     Joints of a prismatic kind get their offset in metres.
     """
     ps = ParameterSet()
@@ -256,6 +259,9 @@ def robot_parameters(robot, joints: list[str], preset: str = "full", frames: dic
         jm = robot.model.joints[robot.joint_id(j)]
         unit = "m" if jm.shortname().startswith("JointModelP") else "rad"
         ps.add(Parameter(f"{j}.backlash", "joint_backlash", j, 0, unit=unit))
+    for j in (joints if tilt is True else list(tilt or [])):
+        robot.joint_id(j)
+        ps.add(Parameter(f"{j}.tilt", "joint_tilt", j, 0, unit="rad/(N m)"))
     for frame, comps in (frames or {}).items():
         robot.frame_id(frame)
         comps = COMPONENTS if comps is True else tuple(comps)
