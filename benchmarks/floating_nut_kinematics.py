@@ -2,6 +2,8 @@
 
 Run: OMP_NUM_THREADS=1 python benchmarks/floating_nut_kinematics.py
 Targets (issue 5): compensated IK > 200,000 poses/s in batch; FK < 50 us per solve.
+Rows marked (numba) use the optional compiled single-pose FK (pip install robocal[fast]); the other
+rows force numpy.
 """
 import os
 
@@ -32,7 +34,8 @@ def best_time(fn, repeat=5):
     return min(times)
 
 
-def speed_rows(kin):
+def speed_rows(kin, kin_numba=None):
+    """kin: numpy single-pose FK (use_numba=False); kin_numba: the numba kernel, rows skipped if None."""
     rows = []
     for n in (1_000, 100_000):
         P = poses(kin, n)
@@ -62,6 +65,15 @@ def speed_rows(kin):
     rows.append(("FK single call, cold (uncompensated J)", 200 / t, t / 200 * 1e6, ""))
     t = best_time(lambda: [kin.fk(l, p_init=p + 1e-4, warn_condition=None) for l, p in zip(lc, P)], repeat=5)
     rows.append(("FK single call, warm", 200 / t, t / 200 * 1e6, ""))
+    if kin_numba is None:
+        return rows
+    kin_numba.fk(lc[0])                         # compile, or load numba's cache, before timing
+    t = best_time(lambda: [kin_numba.fk(l) for l in lc], repeat=5)
+    rows.append(("FK single call, cold (numba)", 200 / t, t / 200 * 1e6, "target < 50 us"))
+    t = best_time(lambda: [kin_numba.fk(l, jacobian="uncompensated") for l in lc], repeat=5)
+    rows.append(("FK single call, cold (uncompensated J, numba)", 200 / t, t / 200 * 1e6, ""))
+    t = best_time(lambda: [kin_numba.fk(l, p_init=p + 1e-4, warn_condition=None) for l, p in zip(lc, P)], repeat=5)
+    rows.append(("FK single call, warm (numba)", 200 / t, t / 200 * 1e6, ""))
     return rows
 
 
@@ -87,11 +99,18 @@ def accuracy_rows(kin):
 
 
 def main():
-    kin = FloatingNutKinematics(reference_fixture())
+    kin = FloatingNutKinematics(reference_fixture(), use_numba=False)   # numpy rows
+    try:
+        kin_numba = FloatingNutKinematics(reference_fixture(), use_numba=True)
+        kin_numba._single_pose_solver()
+    except ImportError:
+        kin_numba = None                        # numba not installed: no numba rows
     print("floating-nut hexapod kinematics, seed-002 fixture, box +-0.1 m / +-10 deg, one core")
-    print(f"{'operation':40s} {'per second':>14s} {'us each':>10s}  note")
-    for name, rate, us, note in speed_rows(kin):
-        print(f"{name:40s} {rate:14,.0f} {us:10.2f}  {note}")
+    print(f"{'operation':46s} {'per second':>14s} {'us each':>10s}  note")
+    for name, rate, us, note in speed_rows(kin, kin_numba):
+        print(f"{name:46s} {rate:14,.0f} {us:10.2f}  {note}")
+    if kin_numba is None:
+        print("(numba not installed: pip install robocal[fast] for the compiled single-pose FK)")
     print()
     print(f"{'accuracy over 10,000 random poses':45s} value")
     for name, value in accuracy_rows(kin):

@@ -137,9 +137,12 @@ class FKResult:
 
 
 class FloatingNutKinematics:
-    """Closed-form kinematics of one `FloatingNutGeometry` (home values cached at construction)."""
+    """Closed-form kinematics of one `FloatingNutGeometry` (home values cached at construction).
 
-    def __init__(self, geometry: FloatingNutGeometry):
+    use_numba: single-pose FK in the numba kernel (floating_nut_fk_compiled.py). None: when numba
+    imports and ROBOCAL_NO_NUMBA is not set to 1; False: numpy only; True: numba required."""
+
+    def __init__(self, geometry: FloatingNutGeometry, use_numba: bool | None = None):
         self.geometry = geometry
         g = geometry
         self._b, self._m, self._a, self._c = g.b, g.m, g.base_axes, g.plat_axes
@@ -151,6 +154,7 @@ class FloatingNutKinematics:
         self._s0 = home.s[0]
         self._s0_plat = home.s[0] @ home.R[0]             # R0^T s0, home strut axis in {O_m}
         self._single = None                               # single-pose FK tables, see fk
+        self._use_numba = use_numba
 
     # ---- home values ------------------------------------------------------------------
     @property
@@ -366,7 +370,8 @@ class FloatingNutKinematics:
         kinematics), so the pose error is at round-off rather than |J^-1| tol. `iterations` counts
         Newton updates with a fresh matrix. Raises FKNotConverged (naming the sample) otherwise;
         logs a warning when cond(J) near the solution exceeds warn_condition.
-        One pose with an analytic matrix goes to a lean solver with the same iterates (floating_nut_fk.py).
+        One pose with an analytic matrix goes to a lean solver with the same iterates (floating_nut_fk.py,
+        or its numba kernel, see the class docstring).
         """
         if jacobian not in JACOBIAN_MODES:
             raise InputError(f"jacobian must be one of {JACOBIAN_MODES}, got '{jacobian}'", field="jacobian")
@@ -431,10 +436,10 @@ class FloatingNutKinematics:
         return FKResult(P, iterations, residual, history)
 
     def _single_pose_solver(self):
-        """The lean single-pose FK of this geometry, built on first use."""
+        """The lean single-pose FK of this geometry (numba or numpy), built on first use."""
         if self._single is None:
-            from .floating_nut_fk import SinglePoseFK   # imports this module: deferred
-            self._single = SinglePoseFK(self)
+            from .floating_nut_fk_compiled import single_pose_solver   # imports this module: deferred
+            self._single = single_pose_solver(self, self._use_numba)
         return self._single
 
     def _newton_matrix(self, t, P, compensate, jacobian):
