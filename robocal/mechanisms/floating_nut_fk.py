@@ -27,13 +27,14 @@ AC, AU, UU, CU, ACU = range(5)
 
 
 def _rotation_zyx(a, b, g):
-    """R = Rz(g) Ry(b) Rx(a) (9 floats, row-major) and dR/da, dR/db, dR/dg (9 floats each)."""
+    """R = Rz(g) Ry(b) Rx(a) (9 floats, row-major) and dR/da, dR/db, dR/dg (9 floats each); tuples, so
+    that floating_nut_fk_compiled can jit this very function."""
     ca, sa, cb, sb, cg, sg = math.cos(a), math.sin(a), math.cos(b), math.sin(b), math.cos(g), math.sin(g)
     r00, r10 = cg * cb, sg * cb
     r01, r02 = cg * sb * sa - sg * ca, cg * sb * ca + sg * sa
     r11, r12 = sg * sb * sa + cg * ca, sg * sb * ca - cg * sa
     r21, r22 = cb * sa, cb * ca
-    return ([r00, r01, r02, r10, r11, r12, -sb, r21, r22],
+    return ((r00, r01, r02, r10, r11, r12, -sb, r21, r22),
             (0.0, r02, -r01, 0.0, r12, -r11, 0.0, r22, -r21),                        # R skew(e_x)
             (-cg * sb, cg * r21, cg * r22, -sg * sb, sg * r21, sg * r22, -cb, -sb * sa, -sb * ca),
             (-r10, -r11, -r12, r00, r01, r02, 0.0, 0.0, 0.0))                         # skew(e_z) R
@@ -45,7 +46,7 @@ def _rotation_xyz(a, b, g):
     r00, r01 = cb * cg, -cb * sg
     r10, r11, r12 = ca * sg + sa * sb * cg, ca * cg - sa * sb * sg, -sa * cb
     r20, r21, r22 = sa * sg - ca * sb * cg, sa * cg + ca * sb * sg, ca * cb
-    return ([r00, r01, sb, r10, r11, r12, r20, r21, r22],
+    return ((r00, r01, sb, r10, r11, r12, r20, r21, r22),
             (0.0, 0.0, 0.0, -r20, -r21, -r22, r10, r11, r12),                        # skew(e_x) R
             (-sb * cg, sb * sg, cb, sa * cb * cg, -sa * cb * sg, sa * sb, -ca * cb * cg, ca * cb * sg, -ca * sb),
             (r01, -r00, 0.0, r11, -r10, 0.0, r21, -r20, 0.0))                         # R skew(e_z)
@@ -115,9 +116,7 @@ class SinglePoseFK:
     def _evaluate(self, p, L, compensate):
         """m-lift at pose p: Q m (30, 13), q (5, 6), l, x, y, dR/d(angles) (27 floats), residual e."""
         R, dRa, dRb, dRg = self.rotation(p[3], p[4], p[5])
-        R += p[:3]
-        R.append(1.0)
-        m, dR = np.array(R), dRa + dRb + dRg
+        m, dR = np.array(R + tuple(p[:3]) + (1.0,)), dRa + dRb + dRg
         Qm = m.dot(self.forms).reshape(30, 13)
         q = Qm.dot(m).reshape(5, 6)
         l = np.sqrt(q[UU])

@@ -19,7 +19,7 @@ import os
 
 import numpy as np
 
-from .floating_nut_fk import SinglePoseFK
+from .floating_nut_fk import SinglePoseFK, _rotation_xyz, _rotation_zyx
 from .floating_nut_kinematics import SINGULAR_TOL, FKResult
 
 EULER_CODES = {"ZYX-fixed": 0, "XYZ-moving": 1}
@@ -88,24 +88,8 @@ class CompiledSinglePoseFK(SinglePoseFK):
 # ---- kernel (plain Python until `_compile` jits it in place) ---------------------------------
 
 def _rotation(euler, a, b, g):
-    """R (9, row-major) and dR/da, dR/db, dR/dg as tuples: floating_nut_fk._rotation_zyx / _xyz."""
-    ca, sa, cb, sb, cg, sg = math.cos(a), math.sin(a), math.cos(b), math.sin(b), math.cos(g), math.sin(g)
-    if euler == 0:
-        r00, r10 = cg * cb, sg * cb
-        r01, r02 = cg * sb * sa - sg * ca, cg * sb * ca + sg * sa
-        r11, r12 = sg * sb * sa + cg * ca, sg * sb * ca - cg * sa
-        r21, r22 = cb * sa, cb * ca
-        return ((r00, r01, r02, r10, r11, r12, -sb, r21, r22),
-                (0.0, r02, -r01, 0.0, r12, -r11, 0.0, r22, -r21),
-                (-cg * sb, cg * r21, cg * r22, -sg * sb, sg * r21, sg * r22, -cb, -sb * sa, -sb * ca),
-                (-r10, -r11, -r12, r00, r01, r02, 0.0, 0.0, 0.0))
-    r00, r01 = cb * cg, -cb * sg
-    r10, r11, r12 = ca * sg + sa * sb * cg, ca * cg - sa * sb * sg, -sa * cb
-    r20, r21, r22 = sa * sg - ca * sb * cg, sa * cg + ca * sb * sg, ca * cb
-    return ((r00, r01, sb, r10, r11, r12, r20, r21, r22),
-            (0.0, 0.0, 0.0, -r20, -r21, -r22, r10, r11, r12),
-            (-sb * cg, sb * sg, cb, sa * cb * cg, -sa * cb * sg, sa * sb, -ca * cb * cg, ca * cb * sg, -ca * sb),
-            (r01, -r00, 0.0, r11, -r10, 0.0, r21, -r20, 0.0))
+    """R (9, row-major) and dR/da, dR/db, dR/dg: the numpy path's own functions, jitted with the kernel."""
+    return _rotation_zyx(a, b, g) if euler == 0 else _rotation_xyz(a, b, g)
 
 
 def _rotate(R, v, i0):
@@ -311,7 +295,7 @@ def _newton(L, p, cold, consts, home, home_piv, euler, compensate, full, tol, ma
     return OK, iterations, res, n, bound
 
 
-_KERNEL = ("_rotation", "_rotate", "_evaluate", "_jacobian", "_regular", "_lu_factor", "_lu_solve",
+_KERNEL = ("_rotation_zyx", "_rotation_xyz", "_rotation", "_rotate", "_evaluate", "_jacobian", "_regular", "_lu_factor", "_lu_solve",
            "_condition_bound", "_newton")
 _compiled = False
 
