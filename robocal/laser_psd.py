@@ -187,68 +187,44 @@ def _scale_is_free(problem: Problem, res: LaserLineResidual, free: set[str]) -> 
     return np.linalg.norm(origin) == 0 or mount_free
 
 
-def structural_gauges(problem: Problem, mount: LaserMount) -> dict[str, str]:
-    """Offsets these data cannot give for a reason the start-point Jacobian may not show.
-
-    Spinning the beam about itself does not move it, but it turns the direction of the residual's
-    2-vector; so while residuals are non-zero (at the start point) such a spin looks informative. Joint
-    6's offset is exactly such a spin when the beam is coaxial with joint 6, and it is one (after the
-    line itself moves with the mount) when the mount is estimated too.
-    """
-    res = next(r for r in problem.residuals if isinstance(r, LaserLineResidual))
-    last = f"{problem.joint_names[-1]}.offset"
-    if last not in problem.params or not problem.params[last].vary:
-        return {}
-    if _coaxial(mount, problem.robot):
-        return {last: "coaxial"}
-    if any(a.vary for a in res.aux if a.suffix.startswith(("origin", "tilt"))):
-        return {last: "mount"}
-    return {}
-
-
 @dataclass
 class LaserCalibration:
     result: object                   # robocal CalibrationResult
-    gauges: dict[str, str]           # parameter -> reason, held at its start value before the fit
     statements: list[str]
 
 
 def calibrate_laser(problem: Problem, mount: LaserMount, options=None) -> LaserCalibration:
-    """robocal.calibrate.calibrate after holding the structural gauges, with the laser sentences."""
+    """robocal.calibrate.calibrate plus the laser sentences. No special-casing: the residual is invariant
+    to a spin about the beam, so the generic selection itself drops joint 6 when it is such a spin."""
     from .calibrate import calibrate
-    gauges = structural_gauges(problem, mount)
-    for name in gauges:
-        problem.params[name].vary = False
-        problem.params[name].identifiable = False
     result = calibrate(problem, options)
-    for name in gauges:
-        problem.params[name].identifiable = False
-    return LaserCalibration(result, gauges, laser_statements(result, problem, mount, gauges))
+    return LaserCalibration(result, laser_statements(result, problem, mount))
 
 
-def laser_statements(result, problem: Problem, mount: LaserMount, gauges: dict | None = None) -> list[str]:
+def laser_statements(result, problem: Problem, mount: LaserMount) -> list[str]:
     """What these data cannot give, in words, built on the generic identifiability result."""
     joints = problem.joint_names
     res = next(r for r in problem.residuals if isinstance(r, LaserLineResidual))
-    gauges = gauges or {}
-    lost = set(result.unidentifiable) | set(gauges)
+    lost = set(result.unidentifiable)
     out = []
     first, last = joints[0], joints[-1]
+    explained = {f"{first}.offset"}
     if f"{first}.offset" in lost:
         out.append(f"The zero offset of {first} cannot be found with an unknown PSD location: turning {first} "
                    f"turns every beam about the base axis, and the unknown point turns with them, so the data do "
                    f"not change. It is left at its initial value; it needs an external azimuth reference.")
     if f"{last}.offset" in lost:
-        if gauges.get(f"{last}.offset") == "coaxial" or _coaxial(mount, problem.robot):
+        if _coaxial(mount, problem.robot):
+            explained.add(f"{last}.offset")
             out.append(f"The zero offset of {last} cannot be found: the beam lies on {last}'s axis, so turning "
                        f"{last} spins the beam about itself. Mount the laser off the axis or tilted to it.")
-        elif gauges.get(f"{last}.offset") == "mount" or any(
-                f"{res.name}.{s}" in result.requested for s in ("origin.x", "origin.y", "tilt_a", "tilt_b")):
+        elif any(f"{res.name}.{s}" in result.requested for s in ("origin.x", "origin.y", "tilt_a", "tilt_b")):
+            explained.add(f"{last}.offset")
             out.append(f"The zero offset of {last} cannot be separated from the laser mount's orientation "
                        f"about {last}'s axis, which is estimated too. Calibrate the mount beforehand to get it.")
-    for name in sorted(lost - set(gauges)):
+    for name in sorted(lost - explained):
         j = name[:-len(".offset")] if name.endswith(".offset") else None
-        if j in joints[1:] and not (j == last and f"{last}.offset" in gauges):
+        if j in joints[1:]:
             out.append(f"The zero offset of {j} cannot be found from these poses: a turn of {j} moves every "
                        f"beam and the point rigidly together (its axis did not move between poses). Vary "
                        f"{first} across the poses (fans about several axes).")
@@ -258,7 +234,7 @@ def laser_statements(result, problem: Problem, mount: LaserMount, gauges: dict |
     if any(n.startswith(f"{res.name}.tilt") for n in lost):
         out.append("The beam direction in the flange frame cannot be found: with a constant stand-off the data "
                    "fix only one point of the beam. Vary the laser-to-PSD distance.")
-    if _scale_is_free(problem, res, set(result.requested) | set(gauges)):
+    if _scale_is_free(problem, res, set(result.requested)):
         out.append("The overall length scale cannot be determined: beams through one point stay so when every "
                    "length (links, laser mount, PSD position) is multiplied by the same factor. Hold one length "
                    "fixed or add a distance measurement.")
