@@ -58,22 +58,18 @@ def speed_rows(kin, kin_numba=None):
     lc = kin.ik(P)
     t = best_time(lambda: [kin.ik(p) for p in P], repeat=3)
     rows.append(("IK single call", 200 / t, t / 200 * 1e6, "numpy call overhead"))
-    # one pose per call goes through the lean single-pose solver (floating_nut_fk.py)
-    t = best_time(lambda: [kin.fk(l) for l in lc], repeat=5)
-    rows.append(("FK single call, cold", 200 / t, t / 200 * 1e6, "target < 50 us"))
-    t = best_time(lambda: [kin.fk(l, jacobian="uncompensated") for l in lc], repeat=5)
-    rows.append(("FK single call, cold (uncompensated J)", 200 / t, t / 200 * 1e6, ""))
-    t = best_time(lambda: [kin.fk(l, p_init=p + 1e-4, warn_condition=None) for l, p in zip(lc, P)], repeat=5)
-    rows.append(("FK single call, warm", 200 / t, t / 200 * 1e6, ""))
-    if kin_numba is None:
-        return rows
-    kin_numba.fk(lc[0])                         # compile, or load numba's cache, before timing
-    t = best_time(lambda: [kin_numba.fk(l) for l in lc], repeat=5)
-    rows.append(("FK single call, cold (numba)", 200 / t, t / 200 * 1e6, "target < 50 us"))
-    t = best_time(lambda: [kin_numba.fk(l, jacobian="uncompensated") for l in lc], repeat=5)
-    rows.append(("FK single call, cold (uncompensated J, numba)", 200 / t, t / 200 * 1e6, ""))
-    t = best_time(lambda: [kin_numba.fk(l, p_init=p + 1e-4, warn_condition=None) for l, p in zip(lc, P)], repeat=5)
-    rows.append(("FK single call, warm (numba)", 200 / t, t / 200 * 1e6, ""))
+    # one pose per call goes through the lean single-pose solver: numpy (floating_nut_fk.py), then numba
+    for solver, tag in ((kin, ""), (kin_numba, ", numba")):
+        if solver is None:
+            continue
+        solver.fk(lc[0])                        # compile, or load numba's cache, before timing
+        t = best_time(lambda: [solver.fk(l) for l in lc], repeat=5)
+        rows.append((f"FK single call, cold{' (numba)' if tag else ''}", 200 / t, t / 200 * 1e6, "target < 50 us"))
+        t = best_time(lambda: [solver.fk(l, jacobian="uncompensated") for l in lc], repeat=5)
+        rows.append((f"FK single call, cold (uncompensated J{tag})", 200 / t, t / 200 * 1e6, ""))
+        t = best_time(lambda: [solver.fk(l, p_init=p + 1e-4, warn_condition=None) for l, p in zip(lc, P)],
+                      repeat=5)
+        rows.append((f"FK single call, warm{' (numba)' if tag else ''}", 200 / t, t / 200 * 1e6, ""))
     return rows
 
 
