@@ -31,11 +31,11 @@ class JointTilts:
         """entries: (joint id, tilt compliance t, [(free column, coefficient)])."""
         if robot.loops is not None:
             raise ValueError("joint_tilt parameters are supported on serial (tree) robots only")
-        self.robot, self.entries = robot, entries
+        self.entries = entries
         self.nominal = robot.model
         self.gdata = self.nominal.createData()
         self.placements = {jid: model.jointPlacements[jid].copy() for jid, _, _ in entries}
-        self.axes = {jid: _axis(self.nominal, jid) for jid, _, _ in entries}
+        self.axes = {jid: _axis(robot, jid) for jid, _, _ in entries}
 
     def moments(self, q_nominal: np.ndarray) -> dict[int, np.ndarray]:
         """Each tilted joint's perpendicular gravity moment about its placement origin, placement frame."""
@@ -76,15 +76,8 @@ def _twist(rotation: np.ndarray) -> np.ndarray:
     return np.concatenate([np.zeros(3), rotation])
 
 
-def _axis(model, jid: int) -> np.ndarray:
-    """Unit axis of a one-dof joint in its frame: the angular (revolute) or linear (prismatic) part of S."""
-    jm = model.joints[jid]
-    if jm.nv != 1:
-        raise ValueError(f"joint_tilt: joint '{model.names[jid]}' has {jm.nv} degrees of freedom; "
-                         "only one-dof joints tilt")
-    data = model.createData()
-    q = pin.neutral(model)
-    pin.computeJointJacobians(model, data, q)
-    S = pin.getJointJacobian(model, data, jid, pin.ReferenceFrame.LOCAL)[:, jm.idx_v]
-    axis = S[3:] if np.linalg.norm(S[3:]) > 0.5 else S[:3]
-    return axis / np.linalg.norm(axis)
+def _axis(robot, jid: int) -> np.ndarray:
+    axis = robot.joint_axis(jid)
+    if axis is None:
+        raise ValueError(f"joint_tilt: joint '{robot.model.names[jid]}' is not a one-dof joint; only those tilt")
+    return axis[0]

@@ -208,7 +208,7 @@ def laser_statements(result, problem: Problem, mount: LaserMount) -> list[str]:
     lost = set(result.unidentifiable)
     out = []
     first, last = joints[0], joints[-1]
-    explained = {f"{first}.offset"}
+    explained = set()          # losses a sentence above already gives the reason for
     if f"{first}.offset" in lost:
         out.append(f"The zero offset of {first} cannot be found with an unknown PSD location: turning {first} "
                    f"turns every beam about the base axis, and the unknown point turns with them, so the data do "

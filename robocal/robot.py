@@ -159,6 +159,19 @@ class Robot:
                 out.append((k, frames[fid].placement.inverse() * m.jointPlacements[k]))
         return out
 
+    def joint_axis(self, jid: int) -> tuple[np.ndarray, bool] | None:
+        """(unit axis in the joint's frame, revolute?) of a one-dof joint, from its motion subspace S
+        (angular part for a revolute, linear for a prismatic joint); None for any other joint."""
+        jm = self.model.joints[jid]
+        if jm.nv != 1:
+            return None
+        data = self.model.createData()
+        pin.computeJointJacobians(self.model, data, pin.neutral(self.model))
+        S = pin.getJointJacobian(self.model, data, jid, pin.ReferenceFrame.LOCAL)[:, jm.idx_v]
+        revolute = np.linalg.norm(S[3:]) > 0.5
+        axis = S[3:] if revolute else S[:3]
+        return axis / np.linalg.norm(axis), bool(revolute)
+
     # ---- configurations ----------------------------------------------------------------
     def neutral(self) -> np.ndarray:
         return pin.neutral(self.model)

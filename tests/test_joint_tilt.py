@@ -119,3 +119,18 @@ def test_tilt_on_a_closed_chain_is_refused():
     params = robot_parameters(robot, [], "none", tilt=[robot.loops.actuated[0]])
     with pytest.raises(ValueError, match="joint_tilt parameters are supported on serial"):
         ModelState(robot, params, robot.loops.actuated)
+
+
+def test_joint_axis_of_revolute_prismatic_and_other_joints():
+    from pathlib import Path
+
+    from robocal import load_urdf
+    ur5 = load_example("ur5")
+    axis, revolute = ur5.joint_axis(ur5.joint_id("shoulder_lift_joint"))
+    assert revolute and np.allclose(axis, [0, 1, 0])                   # UR5's shoulder turns about its y
+    tiago = load_urdf(Path(__file__).parents[1] / "examples" / "tiago_mocap" / "data" / "tiago_48_schunk.urdf")
+    axis, revolute = tiago.joint_axis(tiago.joint_id("torso_lift_joint"))
+    assert not revolute and np.allclose(axis, [0, 0, 1])               # the torso lifts along z
+    stewart = load_urdf(Path(__file__).parents[1] / "urdf" / "stewart_6_6.urdf")
+    several = next(j for j in range(1, stewart.model.njoints) if stewart.model.joints[j].nv > 1)
+    assert stewart.joint_axis(several) is None

@@ -43,12 +43,9 @@ def beam_reference(robot, frame: str, direction) -> tuple[int, np.ndarray]:
     R_pk = model.frames[k].placement.rotation   # K in the parent joint's frame
     R_pj = model.jointPlacements[j].rotation    # joint j at zero, in the parent joint's frame
     beam = R_pk.T @ R_pj @ f.placement.rotation @ direction
-    data = model.createData()
-    pin.computeJointJacobians(model, data, pin.neutral(model))
-    S = pin.getJointJacobian(model, data, j, pin.LOCAL)[:, model.joints[j].idx_v:
-                                                         model.joints[j].idx_v + model.joints[j].nv]
-    if S.shape[1] == 1 and np.linalg.norm(S[3:, 0]) > 0.5:      # revolute: its axis, signed along the beam
-        axis = R_pk.T @ R_pj @ (S[3:, 0] / np.linalg.norm(S[3:, 0]))
+    axis = robot.joint_axis(j)
+    if axis is not None and axis[1]:                             # revolute: its axis, signed along the beam
+        axis = R_pk.T @ R_pj @ axis[0]
         return k, axis if axis @ beam >= 0 else -axis
     return k, beam
 
