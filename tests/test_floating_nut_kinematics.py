@@ -239,6 +239,13 @@ def test_bad_pose_input(kin):
     assert info.value.row == 1
     with pytest.raises(InputError, match="jacobian"):
         kin.fk(kin.home_lengths, jacobian="broyden")
+    # the solver options are checked before any path (single pose, batch, compiled) is taken
+    for lengths in (kin.home_lengths, np.tile(kin.home_lengths, (2, 1))):
+        for bad, field in ((dict(max_iter=None), "max_iter"), (dict(max_iter=-1), "max_iter"),
+                           (dict(max_iter=2.5), "max_iter"), (dict(tol=0.0), "tol"), (dict(tol=np.nan), "tol")):
+            with pytest.raises(InputError) as info:
+                kin.fk(lengths, **bad)
+            assert info.value.field == field
 
 
 @pytest.mark.parametrize("options", [dict(), dict(jacobian="uncompensated"), dict(compensate=False)],

@@ -375,6 +375,11 @@ class FloatingNutKinematics:
         """
         if jacobian not in JACOBIAN_MODES:
             raise InputError(f"jacobian must be one of {JACOBIAN_MODES}, got '{jacobian}'", field="jacobian")
+        # every solver counts iterations up to max_iter: no limit would let a diverging Newton run forever
+        if isinstance(max_iter, bool) or not isinstance(max_iter, (int, np.integer)) or max_iter < 0:
+            raise InputError(f"max_iter must be an integer >= 0, got {max_iter!r}", field="max_iter")
+        if not tol > 0.0:
+            raise InputError(f"tol must be a positive number of metres, got {tol!r}", field="tol")
         lean = None if jacobian == "fd" else _single_pose_inputs(lengths, p_init)
         if lean is not None:
             return self._single_pose_solver().solve(*lean, compensate, jacobian, tol, max_iter, warn_condition)
