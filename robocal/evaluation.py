@@ -8,7 +8,9 @@ the largest norm, in mm (`BlockErrors.point_stats`).
 
 `cross_validate(problem, folds)` fits the problem on all samples but one fold's and predicts that fold,
 for every fold; the held-out errors of all folds together score a modelling choice on one data set.
-`kfold(n, k)` makes deterministic interleaved folds (k = n: leave-one-out).
+`kfold(n, k)` makes deterministic interleaved folds (k = n: leave-one-out); `edge_folds(values)` holds
+out the postures at the ends of each joint's range, so each is predicted by a fit that never reached that
+far: a training-only estimate of the error outside the calibrated range.
 
 `setup_for_data(config, csv)` builds a config's problem on another CSV file of the same layout (a
 validation session); `posture_groups` sorts postures into repeated / new / out of range against a
@@ -138,6 +140,30 @@ def kfold(n_samples: int, k: int) -> list[np.ndarray]:
     return [np.arange(i, n_samples, k) for i in range(k)]
 
 
+def edge_folds(values: np.ndarray, fraction: float = 0.1) -> list[np.ndarray]:
+    """Disjoint folds of the postures near the ends of each joint's range (values: (N, n_joints)).
+
+    For each joint in turn, low end then high end: the postures whose reading lies within `fraction` of
+    the joint's span from that end, less those already in a fold. Fitting without a fold shrinks that
+    joint's range, so its postures are extrapolated; postures in no fold are never scored.
+    Deterministic (no random draw), empty folds skipped."""
+    values = np.atleast_2d(np.asarray(values, dtype=float))
+    if not 0.0 < fraction < 0.5:
+        raise ValueError(f"fraction must be in (0, 0.5), got {fraction}")
+    taken = np.zeros(len(values), dtype=bool)
+    folds = []
+    for q in values.T:
+        span = q.max() - q.min()
+        if span <= 0.0:
+            continue
+        for zone in (q <= q.min() + fraction * span, q >= q.max() - fraction * span):
+            fold = np.flatnonzero(zone & ~taken)
+            if fold.size:
+                folds.append(fold)
+                taken[fold] = True
+    return folds
+
+
 @dataclass
 class CrossValidation:
     """Held-out errors of every term (each predicted by the fit that did not see its sample)."""
@@ -211,5 +237,5 @@ def posture_groups(reference: np.ndarray, values: np.ndarray, tol: float = 0.01,
     return np.where(repeated, 0, np.where(inside, 1, 2))
 
 
-__all__ = ["PointStats", "point_stats", "BlockErrors", "term_errors", "subset_residual", "kfold",
+__all__ = ["PointStats", "point_stats", "BlockErrors", "term_errors", "subset_residual", "kfold", "edge_folds",
            "CrossValidation", "cross_validate", "setup_for_data", "posture_groups"]

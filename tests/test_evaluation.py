@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from robocal.calibrate import calibrate
-from robocal.evaluation import (cross_validate, kfold, point_stats, posture_groups, setup_for_data,
+from robocal.evaluation import (cross_validate, edge_folds, kfold, point_stats, posture_groups, setup_for_data,
                                 subset_residual, term_errors)
 
 HERE = Path(__file__).parents[1] / "examples" / "tiago_mocap"
@@ -30,6 +30,17 @@ def test_kfold_partitions_the_samples_and_leave_one_out():
     assert all(len(f) == 1 for f in kfold(5, 5))
     with pytest.raises(ValueError):
         kfold(3, 4)
+
+
+def test_edge_folds_hold_out_each_joints_range_ends_once():
+    # joint 0 spans 0..10 (ends: rows 0 and 4), joint 1 spans 0..1 (low end row 0, already taken; high row 2)
+    q = np.array([[0.0, 0.0], [5.0, 0.5], [5.0, 1.0], [9.5, 0.3], [10.0, 0.5], [4.0, 0.5]])
+    folds = edge_folds(q, fraction=0.1)
+    assert [f.tolist() for f in folds] == [[0], [3, 4], [2]]
+    # a constant joint makes no fold; the fraction is checked
+    assert [f.tolist() for f in edge_folds(np.c_[q[:, 0], np.ones(6)], 0.1)] == [[0], [3, 4]]
+    with pytest.raises(ValueError):
+        edge_folds(q, 0.5)
 
 
 def test_posture_groups_repeated_new_and_out_of_range():
