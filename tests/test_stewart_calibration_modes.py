@@ -113,3 +113,33 @@ def test_generic_closed_loop_fk_agrees_with_closed_form_ik_on_1000_poses(robot):
         M = st.platform_pose(robot, robot.model, q, data)
         worst = max(worst, np.linalg.norm(pin.log6(M.actInv(pin.SE3(R[k], p[k]))).vector))
     assert worst < 1e-10
+
+
+def test_tool_axis_rows_are_the_two_tilt_angles_and_simulated_noise_matches_sigma():
+    from robocal.residuals.tool_axis import ToolAxisResidual
+
+    class State:                                   # just what the residual asks of a sample
+        def __init__(self, M):
+            self.M = M
+
+        def pose(self, frame):
+            return self.M
+
+    rng = np.random.default_rng(4)
+    Rs = [pin.exp3(rng.normal(size=3)) for _ in range(400)]
+    states = [State(pin.SE3(R, np.zeros(3))) for R in Rs]
+    measured = []
+    for R in Rs:
+        e = R[:, 2]
+        n = np.cross(e, [1.0, 0.0, 0.0]); n /= np.linalg.norm(n)
+        measured.append(pin.exp3(2e-3 * n) @ e)    # 2 mrad away from the model's axis
+    res = ToolAxisResidual("a", "tool", np.arange(400), measured, sigma=1e-3)
+    r = np.array([res.evaluate(k, states, None).r for k in range(400)])
+    assert r.shape == (400, 2)                     # two rows: the along-axis one carries no information
+    np.testing.assert_allclose(np.linalg.norm(r, axis=1), np.sin(2e-3), rtol=1e-9)
+    # noise-free simulation gives zero rows; with noise each row has variance sigma^2 (so chi^2 / dof ~ 1)
+    sim = np.array([res.simulate(k, states, None, rng) for k in range(400)])
+    noisy = ToolAxisResidual("a", "tool", np.arange(400), sim, sigma=1e-3)
+    r = np.array([noisy.evaluate(k, states, None).r for k in range(400)])
+    # 800 rows: the sample variance of sigma^2 has a relative sd of sqrt(2/800) = 5 %; 4 sd = 20 %
+    assert abs(np.mean(r ** 2) / 1e-6 - 1.0) < 0.2
