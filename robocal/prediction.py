@@ -55,16 +55,25 @@ def predict_parameters(design: DesignMatrix, chosen, noise_scale: float = 1.0) -
     return ParameterPrediction(names, cols, cov, stderr, ident.unidentifiable, ident.structural)
 
 
-def pose_jacobians(problem, frame: str, configurations: np.ndarray) -> np.ndarray:
+def pose_jacobians(problem, frame: str, configurations: np.ndarray,
+                   directions: np.ndarray | None = None) -> np.ndarray:
     """(V, 6, n_free) world-aligned [delta p; delta phi] of `frame` per free parameter at each configuration.
 
     problem: anything with model_state() whose samples give pose(frame) and frame_parameter_jacobian(frame),
     with the same free-parameter columns as the DesignMatrix built from it.
+    directions: (V, n_read) approach direction of each joint (-1, 0, +1) for backlash parameters; None = 0,
+    the centre of the play, where a backlash parameter moves nothing.
     """
     ms = problem.model_state()
+    configurations = np.atleast_2d(configurations)
+    if directions is not None:
+        directions = np.asarray(directions, dtype=float)
+        if directions.shape != configurations.shape:
+            raise ValueError(f"directions must have the configurations' shape {configurations.shape}, "
+                             f"got {directions.shape}")
     out = []
-    for v in np.atleast_2d(configurations):
-        s = ms.sample(v)
+    for i, v in enumerate(configurations):
+        s = ms.sample(v, direction=None if directions is None else directions[i])
         G = s.frame_parameter_jacobian(frame)
         R = s.pose(frame).rotation
         out.append(np.vstack([R @ G[:3], R @ G[3:]]))

@@ -122,3 +122,21 @@ def test_accuracy_improves_with_more_poses():
     assert rms[0] > rms[1] > rms[2]
     # Roughly 1/sqrt(N) once well determined: 20 -> 40 poses should gain at least 20 %.
     assert rms[2] < 0.8 * rms[1]
+
+
+def test_pose_jacobians_take_approach_directions_for_backlash():
+    from robocal.parameters import robot_parameters
+    problem = candidates(5, 4)
+    joints = problem.joint_names
+    problem.params = robot_parameters(problem.robot, joints, "offsets", backlash=True)
+    d = np.random.default_rng(5).choice([-1.0, 1.0], size=problem.values.shape)
+    G0 = pose_jacobians(problem, "tool0", problem.values)
+    Gd = pose_jacobians(problem, "tool0", problem.values, directions=d)
+    names = problem.params.free_names
+    for k, j in enumerate(joints):
+        b, o = names.index(f"{j}.backlash"), names.index(f"{j}.offset")
+        assert np.abs(G0[:, :, b]).max() == 0.0                  # at the centre of the play it moves nothing
+        assert np.abs(Gd[:, :, o]).max() > 1e-3                  # a real column (not a vacuous comparison)
+        np.testing.assert_allclose(Gd[:, :, b], d[:, k, None] * Gd[:, :, o], atol=1e-12)
+    with pytest.raises(ValueError, match="shape"):
+        pose_jacobians(problem, "tool0", problem.values, directions=d[:, :3])
