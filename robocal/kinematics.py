@@ -74,8 +74,10 @@ class ModelState:
                     self.compliance[k] = p.value
                     self.compliance_cols += [(k, iv, c, w) for c, w in col.get(p.name, [])]
         induced = []   # joints that hang below a calibrated frame: (joint id, moved frame, its block)
-        # frames first: a joint below a calibrated frame gets that change before its own placement error
-        for kind, target in sorted(groups, key=lambda g: g[0] != "frame_placement"):
+        frame_blocks = []
+        # frames first: a joint below a calibrated frame gets that change before its own placement error;
+        # among frames, parents first, so a calibrated frame below another takes its parent's change
+        for kind, target in sorted(groups, key=lambda g: (g[0] != "frame_placement", self._frame_depth(g))):
             delta = params.placement_vector(kind, target)
             Jr = pin.Jexp6(pin.Motion(delta))
             block = np.zeros((6, self.n_free))
@@ -88,16 +90,21 @@ class ModelState:
                 self.P_joint[6 * (jid - 1):6 * jid] += block
             elif kind == "frame_placement":
                 fid = robot.frame_id(target)
-                moved = nominal.frames[fid].placement * _exp6(delta)
+                moved = self.model.frames[fid].placement * _exp6(delta)
                 for gid, rel in robot.frames_moved_with(fid):
                     self.model.frames[gid].placement = moved * rel
-                    self.P_frame[gid] = self.P_frame.get(gid, 0.0) + rel.inverse().toActionMatrix() @ block
+                frame_blocks.append((fid, block))
                 for jid, rel in robot.joints_moved_with(fid):
                     self.model.jointPlacements[jid] = moved * rel
                     induced.append((jid, moved, block))
             else:
                 self.base = robot_base * _exp6(delta)
                 self.P_base = block
+        for fid, block in frame_blocks:    # with every placement final: frames below carry the twist too
+            final = self.model.frames[fid].placement
+            for gid, _ in robot.frames_moved_with(fid):
+                rel = self.model.frames[gid].placement.inverse() * final
+                self.P_frame[gid] = self.P_frame.get(gid, 0.0) + rel.toActionMatrix() @ block
         for jid, moved, block in induced:
             final = self.model.jointPlacements[jid]
             self.P_joint[6 * (jid - 1):6 * jid] += (final.inverse() * moved).toActionMatrix() @ block
@@ -122,6 +129,17 @@ class ModelState:
         elif any(p.kind == "transmission" for p in params):
             raise ValueError("transmission parameters need a robot with joint relations (screw transmissions or "
                              "couplings)")
+
+    def _frame_depth(self, group: tuple[str, str]) -> int:
+        """How many frames a calibrated frame hangs below on its joint (0 for other kinds)."""
+        kind, target = group
+        if kind != "frame_placement":
+            return 0
+        frames = self.robot.model.frames
+        k, depth = self.robot.frame_id(target), 0
+        while k != 0 and frames[frames[k].parentFrame].parentJoint == frames[k].parentJoint:
+            k, depth = frames[k].parentFrame, depth + 1
+        return depth
 
     def _setup_relations(self, params: ParameterSet, col: dict) -> None:
         """Joint relations (screw transmissions, couplings) of a closed chain, and their parameters.

@@ -75,6 +75,33 @@ def test_frame_parameter_moves_joints_hanging_below_it():
     assert_problem_jacobian(problem, h=1e-6, tol=1e-7)
 
 
+@pytest.mark.parametrize("order", ["parent first", "child first"])
+def test_calibrated_frame_below_a_calibrated_frame_takes_both_changes_in_any_order(order):
+    """tcp hangs on tool0; both calibrated: tcp = tool0 exp(d_tool0) rel exp(d_tcp), whatever the order."""
+    from robocal.kinematics import ModelState
+    from robocal.parameters import ParameterSet
+    rng = np.random.default_rng(11)
+    robot = load_example("ur5")
+    rel = pin.SE3(pin.rpy.rpyToMatrix(0.1, -0.2, 0.3), np.array([0.01, 0.02, 0.1]))
+    robot.add_frame("tcp", "tool0", rel)
+    joints = robot.joint_names
+    both = robot_parameters(robot, joints, "offsets", frames={"tool0": True, "tcp": True})
+    params = ParameterSet(sorted(both, key=lambda p: (p.target != "tcp") == (order == "parent first")))
+    for p in params:
+        p.value = rng.normal(0, 0.05)
+    ms = ModelState(robot, params, joints)
+    q = rng.uniform(-2, 2, len(joints))
+    s = ms.sample(q)
+    nominal = robot.model.frames[robot.frame_id("tool0")].placement
+    expected = nominal * pin.exp6(pin.Motion(params.placement_vector("frame_placement", "tool0"))) * rel * pin.exp6(
+        pin.Motion(params.placement_vector("frame_placement", "tcp")))
+    joint = s.pose("tool0") * ms.model.frames[robot.frame_id("tool0")].placement.inverse()
+    np.testing.assert_allclose((joint * expected).homogeneous, s.pose("tcp").homogeneous, atol=1e-12)
+    res = PointResidual("pt", "tcp", np.arange(3), rng.normal(size=(3, 3)), point=(0.01, 0.02, 0.03))
+    problem = Problem(robot, params, joints, rng.uniform(-2, 2, (3, len(joints))), [res])
+    assert_problem_jacobian(problem, h=1e-6, tol=1e-7)
+
+
 def test_joint_compliance_parameters_match_finite_differences():
     """Compliance: q_link = q_read + offset - c * tau_g(q_read); exact derivative -tau_g per joint."""
     rng = np.random.default_rng(4)
