@@ -105,6 +105,16 @@ def test_tilt_model_is_chosen_by_leave_one_out_and_its_validation_figures_hold()
     np.testing.assert_allclose([best.groups[g].rmse_norm for g in study.GROUPS], [1.77, 1.80, 4.48],
                                atol=OWN_TOL_MM)
     assert v.rmse_norm < 2.5                                      # the validation target
+    # the out-of-range group, posture by posture: the arm_1-only excursions (up to 0.26 rad) are predicted
+    # at the in-range level; rows 0, 4 and 5 take the wrist 0.26-1.18 rad past its training range
+    rows = {row: (err, dict(joints)) for row, err, joints in best.outside}
+    assert sorted(rows) == [0, 2, 3, 4, 5, 58, 59, 60, 61]
+    np.testing.assert_allclose([rows[k][0] for k in sorted(rows)], [8.73, 1.03, 1.68, 7.97, 5.04, 2.53, 1.32,
+                                                                   0.73, 1.64], atol=OWN_TOL_MM)
+    assert np.sqrt(np.mean([e ** 2 for e, _ in rows.values()])) == pytest.approx(best.groups["out of range"].rmse_norm)
+    assert rows[4][1] == pytest.approx({"arm_6_joint": -1.05, "arm_7_joint": 1.18}, abs=0.005)
+    study.edge_cv(best)                                           # training range ends held out: 2.26 mm
+    assert best.edge.n == 24 and abs(best.edge.rmse_norm - 2.26) < OWN_TOL_MM
     r = best.result
     # the wrist play is clearly determined: arm_5 and arm_6 about -6 mrad (link lags the reading)
     for j in ("arm_5_joint", "arm_6_joint"):
