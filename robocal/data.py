@@ -69,28 +69,24 @@ class Table:
         return np.array([i for i, row in enumerate(self.cells) if row[j].strip() == str(value)], dtype=int)
 
 
+# per quantity: its units, the SI one, the largest plausible SI magnitude, and what a larger one looks like
+_QUANTITIES = {"length": (LENGTH_UNITS, "m", MAX_PLAUSIBLE_METRES, "metres", "millimetres", "mm"),
+               "angle": (ANGLE_UNITS, "rad", MAX_PLAUSIBLE_RADIANS, "radians", "degrees", "deg")}
+
+
 def to_si(values: np.ndarray, kind: str, unit: str | None, table: Table, name: str, idx) -> np.ndarray:
-    if kind == "length":
-        unit = unit or "m"
-        if unit not in LENGTH_UNITS:
-            raise InputError(f"unknown length unit '{unit}' (m, mm)", field=name)
-        if unit == "m" and len(values) and np.max(np.abs(values)) > MAX_PLAUSIBLE_METRES:
-            k = int(np.argmax(np.abs(values)))
-            raise InputError(f"value {values[k]:g} is not plausible in metres; the column looks like millimetres "
-                             f"(declare the unit as mm)", source=str(table.path), row=table.line(list(idx)[k]),
-                             field=name)
-        return values * LENGTH_UNITS[unit]
-    if kind == "angle":
-        unit = unit or "rad"
-        if unit not in ANGLE_UNITS:
-            raise InputError(f"unknown angle unit '{unit}' (rad, deg)", field=name)
-        if unit == "rad" and len(values) and np.max(np.abs(values)) > MAX_PLAUSIBLE_RADIANS:
-            k = int(np.argmax(np.abs(values)))
-            raise InputError(f"value {values[k]:g} is not plausible in radians; the column looks like degrees "
-                             f"(declare the unit as deg)", source=str(table.path), row=table.line(list(idx)[k]),
-                             field=name)
-        return values * ANGLE_UNITS[unit]
-    return values
+    if kind not in _QUANTITIES:
+        return values
+    units, si, largest, si_word, other_word, other = _QUANTITIES[kind]
+    unit = unit or si
+    if unit not in units:
+        raise InputError(f"unknown {kind} unit '{unit}' ({', '.join(units)})", field=name)
+    if unit == si and len(values) and np.max(np.abs(values)) > largest:
+        k = int(np.argmax(np.abs(values)))
+        raise InputError(f"value {values[k]:g} is not plausible in {si_word}; the column looks like {other_word} "
+                         f"(declare the unit as {other})", source=str(table.path), row=table.line(list(idx)[k]),
+                         field=name)
+    return values * units[unit]
 
 
 def read_csv(path: str | Path) -> Table:
