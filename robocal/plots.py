@@ -49,10 +49,11 @@ def residuals_per_sample(before, after, path, unit: str = "mm", title: str = "Re
 
 
 def error_histograms(before, after, path, axes=("x", "y", "z"), unit: str = "mm",
-                     title: str = "Error per axis"):
+                     title: str = "Error per axis", labels=("before", "after")):
     """Histograms of (n, k) per-axis errors (in `unit`), before and after, one panel per axis.
 
     Before and after differ by orders of magnitude after a good fit, so each gets its own bins.
+    labels: the names of the two rows (two models on held-out data: e.g. the reference and the chosen one).
     """
     before, after = np.atleast_2d(np.asarray(before, float)), np.atleast_2d(np.asarray(after, float))
     if before.shape[1] != len(axes) or after.shape[1] != len(axes):
@@ -60,13 +61,51 @@ def error_histograms(before, after, path, axes=("x", "y", "z"), unit: str = "mm"
                          f"{after.shape[1]}", field="before/after")
     fig, ax = _figure(2.6 * len(axes), 4.4, nrows=2, ncols=len(axes), squeeze=False)
     for j, name in enumerate(axes):
-        for row, (data, colour, label) in enumerate(((before, BEFORE, "before"), (after, AFTER, "after"))):
+        for row, (data, colour, label) in enumerate(((before, BEFORE, labels[0]), (after, AFTER, labels[1]))):
             a = ax[row, j]
             a.hist(data[:, j], bins=min(30, max(5, len(data) // 3)), color=colour, alpha=0.85)
             a.set_title(f"{name} {label}: rms {np.sqrt(np.mean(data[:, j] ** 2)):.3g} {unit}", fontsize=9)
             a.set_xlabel(f"{name} error [{unit}]", fontsize=8)
             a.tick_params(labelsize=7)
     fig.suptitle(title)
+    return _save(fig, path)
+
+
+def errors_by_group(errors: dict, groups, path, group_names=None, unit: str = "mm",
+                    title: str = "Held-out error per sample, by group"):
+    """Error size per sample of two models (`errors`: {label: (n,) sizes in `unit`}, first one drawn as
+    the reference in orange), samples sorted by group (`groups`: (n,) int) and shaded per group; the legend
+    gives each model's RMS in each group. For a validation session split into repeated / new / out of
+    range postures."""
+    labels = list(errors)
+    if not 1 <= len(labels) <= 2:
+        raise InputError(f"errors_by_group draws one or two models, got {len(labels)}", field="errors")
+    data = [np.asarray(errors[k], float).ravel() for k in labels]
+    groups = np.asarray(groups, int).ravel()
+    _check_same_length(groups=groups, **{k: d for k, d in zip(labels, data)})
+    present = sorted(set(groups.tolist()))
+    names = list(group_names) if group_names is not None else [f"group {g}" for g in present]
+    if len(names) <= max(present, default=0):
+        raise InputError(f"{len(names)} group names for groups up to {max(present)}", field="group_names")
+    order = np.argsort(groups, kind="stable")
+    fig, ax = _figure(8.0, 4.2)
+    x = np.arange(1, len(order) + 1)
+    start = 0
+    for g in present:
+        n = int(np.sum(groups == g))
+        if g % 2:
+            ax.axvspan(start + 0.5, start + n + 0.5, color="#000000", alpha=0.06, lw=0)
+        ax.text(start + n / 2 + 0.5, 1.0, names[g], transform=ax.get_xaxis_transform(), ha="center", va="bottom",
+                fontsize=8)
+        start += n
+    for d, colour, label in zip(data, (BEFORE, AFTER), labels):
+        rms = ", ".join(f"{names[g]} {np.sqrt(np.mean(d[groups == g] ** 2)):.2f}" for g in present)
+        ax.plot(x, d[order], "o-", ms=3, lw=0.7, color=colour, label=f"{label} (rms: {rms} {unit})")
+    ax.set_xlabel("sample, sorted by group")
+    ax.set_ylabel(f"|error| [{unit}]")
+    ax.set_title(title, pad=14)
+    ax.grid(True, alpha=0.3)
+    fig.legend(fontsize=7, loc="outside lower center")       # below the axes: the data stay uncovered
     return _save(fig, path)
 
 

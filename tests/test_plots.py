@@ -44,6 +44,20 @@ def test_error_histograms(tmp_path):
         plots.error_histograms(np.ones((5, 2)), np.ones((5, 3)), tmp_path / "x.png")
 
 
+def test_errors_by_group_sorts_samples_and_draws_both_models(tmp_path):
+    rng = np.random.default_rng(2)
+    groups = rng.integers(0, 3, 60)
+    ref, model = rng.uniform(2, 6, 60), rng.uniform(0.5, 2, 60)
+    out = plots.errors_by_group({"reference": ref, "chosen": model}, groups, tmp_path / "g.png",
+                                group_names=["repeated", "new", "out of range"])
+    _, orange, blue = _check_png(out)
+    assert orange > 300 and blue > 300
+    with pytest.raises(InputError):                                  # lengths differ
+        plots.errors_by_group({"a": ref, "b": model[:-1]}, groups, tmp_path / "x.png")
+    with pytest.raises(InputError):                                  # a group without a name
+        plots.errors_by_group({"a": ref}, groups, tmp_path / "x.png", group_names=["repeated", "new"])
+
+
 def test_parameter_estimates_with_error_bars(tmp_path):
     names = ["shoulder_pan_joint.offset", "elbow_joint.tx", "elbow_joint.ry", "tool0.tz"]
     out = plots.parameter_estimates(names, [1e-3, -2e-4, 3e-3, 5e-4], [1e-5, None, 2e-5, 1e-6],
