@@ -1,6 +1,6 @@
 """TIAGo motion-capture study: the published reference models, robocal's candidates, one honest choice.
 
-Run from anywhere:  OMP_NUM_THREADS=1 python examples/tiago_mocap/run_study.py   (a few minutes)
+Run from anywhere:  OMP_NUM_THREADS=1 python examples/tiago_mocap/run_study.py [--plots FOLDER]   (about 6 min)
 
 1. Every model is a config in this folder, fitted on the training session (2021-11-30) only.
 2. Every robocal candidate is scored by leave-one-out cross-validation on the training session
@@ -77,6 +77,8 @@ class Fit:
     validation: object | None = None
     groups: dict | None = None
     outside: list | None = None      # out-of-range validation postures: (row, BL error mm, [(joint, beyond)])
+    val_errors: np.ndarray | None = None   # (n, 3) BL error of each validation posture, mm
+    val_groups: np.ndarray | None = None   # (n,) its posture group
 
     @property
     def block(self) -> str:
@@ -114,7 +116,8 @@ def validate(f: Fit) -> None:
     g = posture_groups(train_q, val_q)[errors.samples]
     f.groups = {name: errors.point_stats(POINT, g == k) for k, name in enumerate(GROUPS)}
     lo, hi = train_q.min(0), train_q.max(0)
-    norms = np.linalg.norm(errors.points()[:, errors.labels.index(POINT)], axis=1) * 1e3
+    f.val_errors, f.val_groups = errors.points()[:, errors.labels.index(POINT)] * 1e3, g
+    norms = np.linalg.norm(f.val_errors, axis=1)
     f.outside = []
     for row, err in zip(errors.samples[g == 2], norms[g == 2]):
         beyond = np.where(val_q[row] < lo, val_q[row] - lo, np.where(val_q[row] > hi, val_q[row] - hi, 0.0))
@@ -153,6 +156,35 @@ def outside_report(f: Fit) -> list[str]:
     return lines
 
 
+def write_plots(reference: Fit, best: Fit, folder: Path) -> list[Path]:
+    """PNG figures for docs/tiago_mocap.md: validation errors of the reference joint_offset model and the
+    chosen one (per posture by group, per axis), the chosen model's play and load parameters, and the
+    singular values of its identification Jacobian."""
+    from robocal import plots
+    folder.mkdir(parents=True, exist_ok=True)
+    names = (reference.label, "chosen")
+    out = [plots.errors_by_group({f"{reference.label} (reference)": np.linalg.norm(reference.val_errors, axis=1),
+                                  "chosen": np.linalg.norm(best.val_errors, axis=1)}, best.val_groups,
+                                 folder / "tiago_validation_by_group.png", group_names=GROUPS,
+                                 title="Validation session: BL error per posture"),
+           plots.error_histograms(reference.val_errors, best.val_errors, folder / "tiago_validation_axes.png",
+                                  title="Validation session: BL error per axis (measurement frame)", labels=names)]
+    p = best.result.params
+    shown = [n for n in p.free_names if n.endswith((".backlash", ".compliance", ".tilt"))]   # offsets: printed
+    per_newton = [n.endswith((".compliance", ".tilt")) for n in shown]     # rad/(N m): shown as mrad/(N m)
+    out.append(plots.parameter_estimates(
+        shown, [p[n].value * (1e3 if k else 1.0) for n, k in zip(shown, per_newton)],
+        [None if p[n].stderr is None else p[n].stderr * (1e3 if k else 1.0) for n, k in zip(shown, per_newton)],
+        folder / "tiago_parameters.png", units=["mrad/(N m)" if k else p[n].unit for n, k in zip(shown, per_newton)],
+        title="Chosen model: play, compliance and tilt"))
+    # the selection keeps the prior-only parameters too; the cut drawn is what the data determine alone
+    sel, data_rank = best.result.selection, best.result.selection.rank - len(best.result.prior_only)
+    out.append(plots.singular_values(sel.singular_values, data_rank, folder / "tiago_singular_values.png",
+                                     title=f"Chosen model (training): data determine {data_rank}, "
+                                           f"priors {len(best.result.prior_only)} more"))
+    return out
+
+
 def parameter_report(f: Fit) -> list[str]:
     r = f.result
     lines = [f"Parameters of '{f.label}' (fitted on training; SI units, standard error from sigma^2 (J^T J)^-1):"]
@@ -167,7 +199,7 @@ def parameter_report(f: Fit) -> list[str]:
     return lines
 
 
-def main(out=sys.stdout) -> list[Fit]:
+def main(out=sys.stdout, plots: Path | None = None) -> list[Fit]:
     reference = [fit(*m) for m in REFERENCE]
     candidates = [fit(*m) for m in CANDIDATES]
     for f in reference + candidates:
@@ -183,8 +215,13 @@ def main(out=sys.stdout) -> list[Fit]:
     print(f"\nChosen on training (lowest LOO): {best.label}\n", file=out)
     print("\n".join(outside_report(best)) + "\n", file=out)
     print("\n".join(parameter_report(reference[1]) + [""] + parameter_report(best)), file=out)
+    if plots is not None:
+        print("\nPlots: " + ", ".join(str(p) for p in write_plots(reference[1], best, plots)), file=out)
     return reference + candidates
 
 
 if __name__ == "__main__":
-    main()
+    import argparse
+    ap = argparse.ArgumentParser(description="TIAGo motion-capture study (docs/tiago_mocap.md)")
+    ap.add_argument("--plots", type=Path, help="also write the study's PNG figures into this folder")
+    main(plots=ap.parse_args().plots)
