@@ -227,15 +227,27 @@ def setup_for_data(config: str | Path, csv: str | Path | None = None, parameters
     return build_setup(Cfg(raw, "", str(path)), path.parent, raw)
 
 
-def posture_groups(reference: np.ndarray, values: np.ndarray, tol: float = 0.01, margin: float = 0.05) -> np.ndarray:
+RANGE_MARGIN = 0.05     # rad or m: how far past a reference range a reading may lie and still count as inside
+
+
+def range_excess(reference: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """(N, n_joints) how far each reading of `values` lies beyond the range of `reference` (M, n_joints) on
+    that joint, signed (negative: below the lowest reference reading), 0 inside the range; SI."""
+    reference, values = np.atleast_2d(reference), np.atleast_2d(values)
+    lo, hi = reference.min(0), reference.max(0)
+    return np.where(values < lo, values - lo, np.where(values > hi, values - hi, 0.0))
+
+
+def posture_groups(reference: np.ndarray, values: np.ndarray, tol: float = 0.01,
+                   margin: float = RANGE_MARGIN) -> np.ndarray:
     """Group of each row of `values` (N, n_joints) against the postures of `reference` (M, n_joints), SI:
     0 repeated (every joint within `tol` of one reference posture), 1 new but inside the reference's
     joint ranges widened by `margin`, 2 out of range."""
     reference, values = np.atleast_2d(reference), np.atleast_2d(values)
     repeated = np.array([np.any(np.all(np.abs(reference - q) <= tol, axis=1)) for q in values], dtype=bool)
-    inside = np.all((values >= reference.min(0) - margin) & (values <= reference.max(0) + margin), axis=1)
+    inside = np.all(np.abs(range_excess(reference, values)) <= margin, axis=1)
     return np.where(repeated, 0, np.where(inside, 1, 2))
 
 
 __all__ = ["PointStats", "point_stats", "BlockErrors", "term_errors", "subset_residual", "kfold", "edge_folds",
-           "CrossValidation", "cross_validate", "setup_for_data", "posture_groups"]
+           "CrossValidation", "cross_validate", "setup_for_data", "RANGE_MARGIN", "range_excess", "posture_groups"]

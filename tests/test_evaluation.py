@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from robocal.calibrate import calibrate
-from robocal.evaluation import (cross_validate, edge_folds, kfold, point_stats, posture_groups, setup_for_data,
+from robocal.evaluation import (cross_validate, edge_folds, kfold, range_excess, point_stats, posture_groups, setup_for_data,
                                 subset_residual, term_errors)
 
 HERE = Path(__file__).parents[1] / "examples" / "tiago_mocap"
@@ -47,6 +47,7 @@ def test_posture_groups_repeated_new_and_out_of_range():
     ref = np.array([[0.0, 0.0], [1.0, 1.0]])
     q = np.array([[0.005, -0.005], [0.5, 0.5], [1.04, 0.0], [1.2, 0.5], [0.0, -0.02]])
     assert posture_groups(ref, q).tolist() == [0, 1, 1, 2, 1]
+    np.testing.assert_allclose(range_excess(ref, q), [[0, -0.005], [0, 0], [0.04, 0], [0.2, 0], [0, -0.02]], atol=1e-15)
 
 
 def test_term_errors_equal_the_fit_residuals_and_score_other_data():

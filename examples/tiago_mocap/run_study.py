@@ -27,7 +27,8 @@ from pathlib import Path
 import numpy as np
 
 from robocal.calibrate import calibrate
-from robocal.evaluation import cross_validate, edge_folds, kfold, posture_groups, setup_for_data, term_errors
+from robocal.evaluation import (RANGE_MARGIN, cross_validate, edge_folds, kfold, posture_groups, range_excess,
+                                setup_for_data, term_errors)
 
 HERE = Path(__file__).resolve().parent
 VALIDATION = HERE / "data" / "qualisys_2021-11-26_static_postures.csv"
@@ -115,14 +116,12 @@ def validate(f: Fit) -> None:
     train_q, val_q = f.setup.problem.values, val.problem.values
     g = posture_groups(train_q, val_q)[errors.samples]
     f.groups = {name: errors.point_stats(POINT, g == k) for k, name in enumerate(GROUPS)}
-    lo, hi = train_q.min(0), train_q.max(0)
     f.val_errors, f.val_groups = errors.points()[:, errors.labels.index(POINT)] * 1e3, g
     norms = np.linalg.norm(f.val_errors, axis=1)
-    f.outside = []
-    for row, err in zip(errors.samples[g == 2], norms[g == 2]):
-        beyond = np.where(val_q[row] < lo, val_q[row] - lo, np.where(val_q[row] > hi, val_q[row] - hi, 0.0))
-        f.outside.append((int(row), float(err), [(val.problem.joint_names[j], float(beyond[j]))
-                                                 for j in np.flatnonzero(np.abs(beyond) > 0.05)]))
+    beyond = range_excess(train_q, val_q)
+    f.outside = [(int(row), float(err), [(val.problem.joint_names[j], float(beyond[row, j]))
+                                         for j in np.flatnonzero(np.abs(beyond[row]) > RANGE_MARGIN)])
+                 for row, err in zip(errors.samples[g == 2], norms[g == 2])]
 
 
 def choose(candidates: list[Fit]) -> Fit:
