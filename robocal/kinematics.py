@@ -91,18 +91,19 @@ class ModelState:
             elif kind == "frame_placement":
                 fid = robot.frame_id(target)
                 moved = self.model.frames[fid].placement * _exp6(delta)
-                for gid, rel in robot.frames_moved_with(fid):
+                moved_with = robot.frames_moved_with(fid)
+                for gid, rel in moved_with:
                     self.model.frames[gid].placement = moved * rel
-                frame_blocks.append((fid, block))
+                frame_blocks.append((fid, block, [gid for gid, _ in moved_with]))
                 for jid, rel in robot.joints_moved_with(fid):
                     self.model.jointPlacements[jid] = moved * rel
                     induced.append((jid, moved, block))
             else:
                 self.base = robot_base * _exp6(delta)
                 self.P_base = block
-        for fid, block in frame_blocks:    # with every placement final: frames below carry the twist too
+        for fid, block, moved_with in frame_blocks:   # every placement final: frames below carry the twist
             final = self.model.frames[fid].placement
-            for gid, _ in robot.frames_moved_with(fid):
+            for gid in moved_with:
                 rel = self.model.frames[gid].placement.inverse() * final
                 self.P_frame[gid] = self.P_frame.get(gid, 0.0) + rel.toActionMatrix() @ block
         for jid, moved, block in induced:
