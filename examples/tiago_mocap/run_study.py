@@ -171,9 +171,10 @@ def write_plots(reference: Fit, best: Fit, folder: Path) -> list[Path]:
     p = best.result.params
     shown = [n for n in p.free_names if n.endswith((".backlash", ".compliance", ".tilt"))]   # offsets: printed
     per_newton = [n.endswith((".compliance", ".tilt")) for n in shown]     # rad/(N m): shown as mrad/(N m)
+    scale = [1e3 if k else 1.0 for k in per_newton]
     out.append(plots.parameter_estimates(
-        shown, [p[n].value * (1e3 if k else 1.0) for n, k in zip(shown, per_newton)],
-        [None if p[n].stderr is None else p[n].stderr * (1e3 if k else 1.0) for n, k in zip(shown, per_newton)],
+        shown, [p[n].value * c for n, c in zip(shown, scale)],
+        [None if p[n].stderr is None else p[n].stderr * c for n, c in zip(shown, scale)],
         folder / "tiago_parameters.png", units=["mrad/(N m)" if k else p[n].unit for n, k in zip(shown, per_newton)],
         title="Chosen model: play, compliance and tilt"))
     # the selection keeps the prior-only parameters too; the cut drawn is what the data determine alone
