@@ -13,8 +13,8 @@ import time  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from robocal.mechanisms.floating_nut_geometry import reference_fixture  # noqa: E402
-from robocal.mechanisms.floating_nut_kinematics import FloatingNutKinematics  # noqa: E402
+from robocal.systems.floating_nut.geometry import reference_fixture  # noqa: E402
+from robocal.systems.floating_nut.kinematics import FloatingNutKinematics  # noqa: E402
 
 DEG = np.pi / 180
 

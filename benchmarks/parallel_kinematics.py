@@ -17,8 +17,8 @@ import numpy as np  # noqa: E402
 import pinocchio as pin  # noqa: E402
 
 import robocal  # noqa: E402
-from robocal.loops import assemble  # noqa: E402
-from robocal.mechanisms import stewart as st  # noqa: E402
+from robocal.model.loops import assemble  # noqa: E402
+from robocal.systems.stewart import mechanism as st  # noqa: E402
 
 URDF = Path(__file__).resolve().parents[1] / "urdf"
 

@@ -11,11 +11,11 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 import numpy as np  # noqa: E402
 
 from robocal import load_urdf  # noqa: E402
-from robocal.kinematics import ModelState  # noqa: E402
-from robocal.mechanisms import pcmm_errors as pe  # noqa: E402
-from robocal.mechanisms.pcmm import (generic_parameters, reference_artefact, reference_geometry,  # noqa: E402
+from robocal.model.kinematics import ModelState  # noqa: E402
+from robocal.systems.pcmm import error_model as pe  # noqa: E402
+from robocal.systems.pcmm.machine import (generic_parameters, reference_artefact, reference_geometry,  # noqa: E402
                                      reference_placements, reference_raw, simulate_probing)
-from robocal.pcmm_calibration import calibrate_pcmm, check_acquisition, evaluate  # noqa: E402
+from robocal.systems.pcmm.calibration import calibrate_pcmm, check_acquisition, evaluate  # noqa: E402
 
 
 def best(f, repeat=5):

@@ -15,16 +15,16 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 import numpy as np  # noqa: E402
 
 from robocal import load_example  # noqa: E402
-from robocal.calibrate import calibrate  # noqa: E402
-from robocal.design import DesignMatrix, select_poses  # noqa: E402
-from robocal.design_candidates import random_candidates  # noqa: E402
-from robocal.design_criteria import CRITERIA  # noqa: E402
-from robocal.kinematics import ModelState  # noqa: E402
-from robocal.parameters import robot_parameters  # noqa: E402
-from robocal.prediction import pose_jacobians, position_weight, predict_parameters, predict_pose_accuracy  # noqa: E402
-from robocal.problem import Problem  # noqa: E402
+from robocal.estimation.calibrate import calibrate  # noqa: E402
+from robocal.design.selection import DesignMatrix, select_poses  # noqa: E402
+from robocal.design.candidates import random_candidates  # noqa: E402
+from robocal.design.criteria import CRITERIA  # noqa: E402
+from robocal.model.kinematics import ModelState  # noqa: E402
+from robocal.model.parameters import robot_parameters  # noqa: E402
+from robocal.design.prediction import pose_jacobians, position_weight, predict_parameters, predict_pose_accuracy  # noqa: E402
+from robocal.estimation.problem import Problem  # noqa: E402
 from robocal.residuals import PoseResidual  # noqa: E402
-from robocal.simulate import perturb, simulate_measurements  # noqa: E402
+from robocal.design.simulate import perturb, simulate_measurements  # noqa: E402
 
 SIGMA = (5e-5, 5e-5)
 

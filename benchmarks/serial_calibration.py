@@ -13,8 +13,8 @@ import numpy as np  # noqa: E402
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "tests"))
 from synthetic_cases import ur5_pose_problem  # noqa: E402
 
-from robocal.calibrate import calibrate  # noqa: E402
-from robocal.simulate import perturb, simulate_measurements  # noqa: E402
+from robocal.estimation.calibrate import calibrate  # noqa: E402
+from robocal.design.simulate import perturb, simulate_measurements  # noqa: E402
 
 
 def run(n_poses, repeats):

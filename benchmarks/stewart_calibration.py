@@ -16,10 +16,10 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 import numpy as np  # noqa: E402
 
 import robocal  # noqa: E402
-from robocal import stewart_calibration as sc, stewart_modes as sm  # noqa: E402
-from robocal.calibrate import calibrate  # noqa: E402
-from robocal.problem import Problem  # noqa: E402
-from robocal.stewart_two_stage import calibrate_two_stage  # noqa: E402
+from robocal.systems.stewart import calibration as sc, modes as sm  # noqa: E402
+from robocal.estimation.calibrate import calibrate  # noqa: E402
+from robocal.estimation.problem import Problem  # noqa: E402
+from robocal.systems.stewart.two_stage import calibrate_two_stage  # noqa: E402
 
 URDF = Path(__file__).resolve().parents[1] / "urdf" / "stewart_6_6.urdf"
 TOOL = sm.Tool(0.2, 0.003)

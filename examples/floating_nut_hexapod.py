@@ -6,9 +6,9 @@ import sys
 
 import numpy as np
 
-from robocal.mechanisms.floating_nut_geometry import reference_fixture
-from robocal.mechanisms.floating_nut_kinematics import FloatingNutKinematics
-from robocal.mechanisms.floating_nut_urdf import write_urdf
+from robocal.systems.floating_nut.geometry import reference_fixture
+from robocal.systems.floating_nut.kinematics import FloatingNutKinematics
+from robocal.systems.floating_nut.urdf import write_urdf
 
 DEG = np.pi / 180
 

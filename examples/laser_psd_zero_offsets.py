@@ -11,12 +11,12 @@ from pathlib import Path
 
 import numpy as np
 
-from robocal.laser_psd import LaserMount, calibrate_laser, offset_report, reading_noise_covariance, zero_offset_problem
-from robocal.laser_psd_plans import PlannedPose, multi_fan, patent_fan, plan_configurations
-from robocal.laser_psd_simulation import PSD, SimRobot, acquire
-from robocal.kinematics import ModelState
-from robocal.parameters import robot_parameters
-from robocal.robot import load_urdf
+from robocal.systems.laser_psd.calibration import LaserMount, calibrate_laser, offset_report, reading_noise_covariance, zero_offset_problem
+from robocal.systems.laser_psd.plans import PlannedPose, multi_fan, patent_fan, plan_configurations
+from robocal.systems.laser_psd.simulation import PSD, SimRobot, acquire
+from robocal.model.kinematics import ModelState
+from robocal.model.parameters import robot_parameters
+from robocal.model.robot import load_urdf
 
 ROOT = Path(__file__).resolve().parents[1]
 design = sys.argv[1] if len(sys.argv) > 1 else "three_fans"

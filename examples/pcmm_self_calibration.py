@@ -8,11 +8,11 @@ import sys
 
 import numpy as np
 
-from robocal.mechanisms import pcmm_errors as pe
-from robocal.mechanisms.pcmm import (reference_artefact, reference_geometry, reference_placements, reference_raw,
+from robocal.systems.pcmm import error_model as pe
+from robocal.systems.pcmm.machine import (reference_artefact, reference_geometry, reference_placements, reference_raw,
                                      simulate_probing)
-from robocal.mechanisms.pcmm_kinematics import random_workspace_poses
-from robocal.pcmm_calibration import calibrate_pcmm, validate
+from robocal.systems.pcmm.kinematics import random_workspace_poses
+from robocal.systems.pcmm.calibration import calibrate_pcmm, validate
 
 seed = int(sys.argv[1]) if len(sys.argv) > 1 else 3
 nominal, artefact = reference_geometry(), reference_artefact()

@@ -7,9 +7,9 @@ from pathlib import Path
 import numpy as np
 
 import robocal
-from robocal import stewart_calibration as sc, stewart_modes as sm
-from robocal.calibrate import calibrate
-from robocal.problem import Problem
+from robocal.systems.stewart import calibration as sc, modes as sm
+from robocal.estimation.calibrate import calibrate
+from robocal.estimation.problem import Problem
 
 robot = robocal.load_urdf(Path(__file__).resolve().parents[1] / "urdf" / "stewart_6_6.urdf")
 tool = sm.Tool(length=0.2, tip_radius=0.003)

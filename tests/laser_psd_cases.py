@@ -4,11 +4,11 @@ from pathlib import Path
 
 import numpy as np
 
-from robocal.kinematics import ModelState
-from robocal.laser_psd import LaserMount
-from robocal.laser_psd_plans import multi_fan, patent_fan, plan_configurations
-from robocal.parameters import robot_parameters
-from robocal.robot import load_urdf
+from robocal.model.kinematics import ModelState
+from robocal.systems.laser_psd.calibration import LaserMount
+from robocal.systems.laser_psd.plans import multi_fan, patent_fan, plan_configurations
+from robocal.model.parameters import robot_parameters
+from robocal.model.robot import load_urdf
 
 URDF = Path(__file__).resolve().parents[1] / "urdf" / "abb_irb1600.urdf"
 DELTA_TRUE = np.radians([0.3, -0.2, 0.25, -0.4, 0.3, 0.2])

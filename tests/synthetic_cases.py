@@ -3,12 +3,12 @@ import numpy as np
 import pinocchio as pin
 
 from robocal import load_example
-from robocal.calibrate import CalibrationOptions, calibrate
-from robocal.kinematics import ModelState
-from robocal.parameters import robot_parameters
-from robocal.problem import Problem
+from robocal.estimation.calibrate import CalibrationOptions, calibrate
+from robocal.model.kinematics import ModelState
+from robocal.model.parameters import robot_parameters
+from robocal.estimation.problem import Problem
 from robocal.residuals import PoseResidual
-from robocal.simulate import perturb, random_configurations, simulate_measurements
+from robocal.design.simulate import perturb, random_configurations, simulate_measurements
 
 IDENTITY_POSE = [0, 0, 0, 0, 0, 0, 1]
 
@@ -24,7 +24,7 @@ def ur5_pose_problem(rng, n_poses=60, sigma=(5e-5, 5e-5)):
 
 def identifiable_names(problem):
     """Free parameters that survive the base-parameter selection at the nominal model."""
-    from robocal.identifiability import select_base_parameters
+    from robocal.estimation.identifiability import select_base_parameters
     ev = problem.evaluate()
     sel = select_base_parameters(ev.J, problem.params.free_names)
     return [problem.params.free_names[i] for i in sel.independent]

@@ -7,13 +7,13 @@ import pinocchio as pin
 import pytest
 
 from robocal import load_example
-from robocal.calibrate import calibrate
-from robocal.export import calibrated_urdf
-from robocal.kinematics import ModelState
-from robocal.parameters import robot_parameters
-from robocal.problem import Problem
+from robocal.estimation.calibrate import calibrate
+from robocal.io.urdf_export import calibrated_urdf
+from robocal.model.kinematics import ModelState
+from robocal.model.parameters import robot_parameters
+from robocal.estimation.problem import Problem
 from robocal.residuals import PoseResidual
-from robocal.simulate import perturb, random_configurations, simulate_measurements
+from robocal.design.simulate import perturb, random_configurations, simulate_measurements
 from robocal.testing import assert_calibration_recovers, assert_problem_jacobian
 
 QUAT_ID = [0, 0, 0, 0, 0, 0, 1.0]
@@ -120,7 +120,7 @@ def test_export_leaves_backlash_out_of_the_urdf():
 
 def test_scene_draws_the_residuals_the_fit_used_with_backlash():
     """The viewer's model takes each sample's approach direction too (else it predicts at the play's centre)."""
-    from robocal.scene_data import scene_data
+    from robocal.viz.scene import scene_data
 
     robot = load_example("ur5")
     joints = robot.joint_names

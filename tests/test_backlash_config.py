@@ -2,8 +2,8 @@
 import numpy as np
 import pytest
 
-from robocal.approach import directions_from_order
-from robocal.config import load_config
+from robocal.model.approach import directions_from_order
+from robocal.io.config import load_config
 from robocal.errors import InputError
 
 UR5 = ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint",

@@ -7,7 +7,7 @@ import pytest
 
 from robocal.cli import main
 
-DEMO = Path(__file__).parents[1] / "robocal" / "data" / "demo"
+DEMO = Path(__file__).parents[1] / "robocal" / "io" / "demo"
 
 
 def _setup(tmp_path, edit_rows=None, config_edit=None, n_rows=None):

@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 from matplotlib.image import imread
 
-from robocal.report import write_report
-from robocal.scene_data import read_scene
+from robocal.viz.report import write_report
+from robocal.viz.scene import read_scene
 from robocal.viz import RecordingWindow, SceneView
 from test_viz_scene_data import demo_result_dir
 

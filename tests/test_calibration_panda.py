@@ -4,11 +4,11 @@ import pytest
 from scipy import stats
 
 from robocal import load_example
-from robocal.calibrate import CalibrationOptions, calibrate
-from robocal.parameters import robot_parameters
-from robocal.problem import Problem
+from robocal.estimation.calibrate import CalibrationOptions, calibrate
+from robocal.model.parameters import robot_parameters
+from robocal.estimation.problem import Problem
 from robocal.residuals import BallBarResidual, PlaneResidual, RigidPointsResidual, SphereResidual
-from robocal.simulate import perturb, random_configurations, simulate_measurements
+from robocal.design.simulate import perturb, random_configurations, simulate_measurements
 from synthetic_cases import identifiable_names
 
 ARM = [f"panda_joint{i}" for i in range(1, 8)]

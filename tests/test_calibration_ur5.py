@@ -3,8 +3,8 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from robocal.calibrate import CalibrationOptions, calibrate
-from robocal.simulate import perturb, random_configurations, simulate_measurements
+from robocal.estimation.calibrate import CalibrationOptions, calibrate
+from robocal.design.simulate import perturb, random_configurations, simulate_measurements
 from synthetic_cases import identifiable_names, max_pose_error, ur5_pose_problem
 
 TINY = (1e-12, 1e-12)  # "noise-free": a sigma is still needed to weight the rows
@@ -87,7 +87,7 @@ def test_too_few_measurements_is_an_error():
 
 
 def test_tied_truth_is_recovered_with_the_tie():
-    from robocal.identifiability import select_base_parameters
+    from robocal.estimation.identifiability import select_base_parameters
     rng = np.random.default_rng(8)
     problem = ur5_pose_problem(rng, 40, TINY)
     problem.params.tie("wrist_3_joint.offset", "wrist_2_joint.offset")

@@ -8,7 +8,7 @@ import pytest
 
 from robocal.cli import main
 
-DEMO = Path(__file__).parents[1] / "robocal" / "data" / "demo"
+DEMO = Path(__file__).parents[1] / "robocal" / "io" / "demo"
 
 
 def test_demo_writes_urdf_json_and_summary(tmp_path, capsys):
@@ -32,9 +32,9 @@ def test_demo_writes_urdf_json_and_summary(tmp_path, capsys):
 def test_demo_model_matches_the_shipped_truth_on_new_poses(tmp_path):
     """The calibrated model predicts the true robot's flange on unseen poses to what the noise allows."""
     from robocal import load_example
-    from robocal.kinematics import ModelState
-    from robocal.parameters import robot_parameters
-    from robocal.simulate import random_configurations
+    from robocal.model.kinematics import ModelState
+    from robocal.model.parameters import robot_parameters
+    from robocal.design.simulate import random_configurations
 
     out = tmp_path / "demo"
     main(["demo", "-o", str(out), "-q"])

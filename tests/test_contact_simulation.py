@@ -3,11 +3,11 @@ import numpy as np
 import pinocchio as pin
 
 from robocal import load_example
-from robocal.calibrate import calibrate
-from robocal.parameters import robot_parameters
-from robocal.problem import Problem
+from robocal.estimation.calibrate import calibrate
+from robocal.model.parameters import robot_parameters
+from robocal.estimation.problem import Problem
 from robocal.residuals import CylinderResidual, LaserLineResidual
-from robocal.simulate import perturb, random_configurations, simulate_measurements
+from robocal.design.simulate import perturb, random_configurations, simulate_measurements
 from synthetic_cases import identifiable_names
 
 

@@ -3,11 +3,11 @@ import numpy as np
 import pytest
 
 from robocal import load_example
-from robocal.design_candidates import (MeasurementVolume, filter_candidates, grid_candidates,
+from robocal.design.candidates import (MeasurementVolume, filter_candidates, grid_candidates,
                                        random_candidates)
 from robocal.errors import InputError
-from robocal.kinematics import ModelState
-from robocal.parameters import robot_parameters
+from robocal.model.kinematics import ModelState
+from robocal.model.parameters import robot_parameters
 
 
 @pytest.fixture(scope="module")

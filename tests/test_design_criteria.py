@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from robocal import design_criteria as dc
+from robocal.design import criteria as dc
 
 
 def test_criteria_on_known_singular_values():

@@ -8,7 +8,7 @@ import yaml
 
 from robocal import load_example
 from robocal.errors import InputError
-from robocal.plan_cli import add_parser, plan_from_config
+from robocal.cli.plan import add_parser, plan_from_config
 
 CONFIG = {
     "robot": {"example": "ur5"},
@@ -68,8 +68,8 @@ def test_same_seed_same_poses_other_seed_other_poses(tmp_path):
     assert not np.array_equal(a.poses, c.poses)
     # every chosen pose is inside the measurement box
     box = CONFIG["plan"]["volume"]["box"]
-    from robocal.kinematics import ModelState
-    from robocal.parameters import ParameterSet
+    from robocal.model.kinematics import ModelState
+    from robocal.model.parameters import ParameterSet
     ms = ModelState(load_example("ur5"), ParameterSet(), a.joint_names)
     p = np.array([ms.sample(v).pose("tool0").translation for v in a.poses])
     assert np.all(p >= box["min"]) and np.all(p <= box["max"])

@@ -3,10 +3,10 @@ and unidentifiable pose sets reported by name."""
 import numpy as np
 import pytest
 
-from robocal.design import DesignMatrix, assess, select_poses
-from robocal.design_candidates import random_candidates
+from robocal.design.selection import DesignMatrix, assess, select_poses
+from robocal.design.candidates import random_candidates
 from robocal.errors import InputError
-from robocal.prediction import pose_jacobians, predict_parameters, predict_pose_accuracy
+from robocal.design.prediction import pose_jacobians, predict_parameters, predict_pose_accuracy
 from synthetic_cases import ur5_pose_problem
 
 
@@ -117,11 +117,11 @@ def test_bad_requests_raise_input_errors(ur5):
 def test_closed_chain_stewart_platform_plans_with_the_same_calls():
     from pathlib import Path
 
-    from robocal.mechanisms import stewart as st
-    from robocal.parameters import placement_parameters, robot_parameters
-    from robocal.problem import Problem
+    from robocal.systems.stewart import mechanism as st
+    from robocal.model.parameters import placement_parameters, robot_parameters
+    from robocal.estimation.problem import Problem
     from robocal.residuals import PoseResidual
-    from robocal.robot import load_urdf
+    from robocal.model.robot import load_urdf
 
     robot = load_urdf(Path(__file__).resolve().parents[1] / "urdf" / "stewart_6_6.urdf")
     act = list(robot.loops.actuated)

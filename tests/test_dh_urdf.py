@@ -6,8 +6,9 @@ import pinocchio as pin
 import pytest
 
 from robocal.errors import InputError
-from robocal.mechanisms.dh_urdf import DEG, IRB1600_145, DHRow, dh_forward, distal, dh_urdf, irb1600_urdf
-from robocal.robot import load_urdf
+from robocal.model.dh_urdf import DEG, IRB1600_145, DHRow, dh_forward, distal, dh_urdf, irb1600_urdf
+from robocal.model.robot import load_urdf
+from robocal.testing import assert_same_text_and_numbers
 
 ROOT = Path(__file__).resolve().parents[1]
 UR5_DH = [DHRow(0.0, 90 * DEG, 0.089159), DHRow(-0.425, 0.0, 0.0), DHRow(-0.39225, 0.0, 0.0),
@@ -74,7 +75,7 @@ def test_irb1600_matches_the_ros_industrial_chain_and_published_dimensions():
 
 def test_committed_irb1600_urdf_is_the_generator_output_and_has_the_published_limits():
     path = ROOT / "urdf" / "abb_irb1600.urdf"
-    assert path.read_text() == irb1600_urdf()
+    assert_same_text_and_numbers(path.read_text(), irb1600_urdf(), what=str(path))
     robot = load_urdf(path)
     lo, hi = robot.model.lowerPositionLimit, robot.model.upperPositionLimit
     deg = np.degrees

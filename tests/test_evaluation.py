@@ -1,11 +1,11 @@
-"""robocal.evaluation: statistics, folds, posture groups, scoring on other data and cross-validation."""
+"""robocal.estimation.evaluation: statistics, folds, posture groups, scoring on other data and cross-validation."""
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from robocal.calibrate import calibrate
-from robocal.evaluation import (cross_validate, edge_folds, kfold, range_excess, point_stats, posture_groups, setup_for_data,
+from robocal.estimation.calibrate import calibrate
+from robocal.estimation.evaluation import (cross_validate, edge_folds, kfold, range_excess, point_stats, posture_groups, setup_for_data,
                                 subset_residual, term_errors)
 
 HERE = Path(__file__).parents[1] / "examples" / "tiago_mocap"

@@ -8,10 +8,10 @@ from lxml import etree
 
 from robocal import load_example, load_urdf
 from robocal.errors import InputError
-from robocal.export import calibrated_urdf, export_urdf
-from robocal.kinematics import ModelState
-from robocal.parameters import robot_parameters
-from robocal.simulate import perturb, random_configurations
+from robocal.io.urdf_export import calibrated_urdf, export_urdf
+from robocal.model.kinematics import ModelState
+from robocal.model.parameters import robot_parameters
+from robocal.design.simulate import perturb, random_configurations
 
 TIAGO = Path(__file__).parents[1] / "examples" / "tiago_mocap" / "data" / "tiago_48_schunk.urdf"
 

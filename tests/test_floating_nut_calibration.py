@@ -12,17 +12,17 @@ import pinocchio as pin
 import pytest
 
 import robocal
-from robocal.calibrate import calibrate
+from robocal.estimation.calibrate import calibrate
 from robocal.errors import InputError
-from robocal.export import calibrated_urdf
-from robocal.floating_nut_calibration import choose_thread_hands, floating_nut_parameters, uncompensated_robot
-from robocal.kinematics import ModelState
-from robocal.mechanisms.floating_nut_geometry import reference_fixture, rotation_matrices
-from robocal.mechanisms.floating_nut_kinematics import FloatingNutKinematics
-from robocal.parameters import Parameter, ParameterSet
-from robocal.problem import Problem
+from robocal.io.urdf_export import calibrated_urdf
+from robocal.systems.floating_nut.calibration import choose_thread_hands, floating_nut_parameters, uncompensated_robot
+from robocal.model.kinematics import ModelState
+from robocal.systems.floating_nut.geometry import reference_fixture, rotation_matrices
+from robocal.systems.floating_nut.kinematics import FloatingNutKinematics
+from robocal.model.parameters import Parameter, ParameterSet
+from robocal.estimation.problem import Problem
 from robocal.residuals import PoseResidual
-from robocal.simulate import simulate_measurements
+from robocal.design.simulate import simulate_measurements
 from robocal.testing import assert_calibration_recovers, assert_frame_jacobians, assert_problem_jacobian
 
 URDF = Path(__file__).resolve().parents[1] / "urdf" / "floating_nut_hexapod.urdf"

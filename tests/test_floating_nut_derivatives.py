@@ -7,8 +7,8 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from robocal.mechanisms.floating_nut_geometry import reference_fixture, tangent_basis
-from robocal.mechanisms.floating_nut_kinematics import FloatingNutKinematics
+from robocal.systems.floating_nut.geometry import reference_fixture, tangent_basis
+from robocal.systems.floating_nut.kinematics import FloatingNutKinematics
 
 DEG = np.pi / 180
 H = 1e-6

@@ -3,9 +3,9 @@ import numpy as np
 import pytest
 
 from robocal.errors import AssemblyError, InputError
-from robocal.mechanisms.floating_nut_geometry import (FloatingNutGeometry, reference_fixture,
+from robocal.systems.floating_nut.geometry import (FloatingNutGeometry, reference_fixture,
                                                       rotation_matrices, sigma_from_thread, thread_hand)
-from robocal.mechanisms.floating_nut_kinematics import (FKNotConverged, FloatingNutKinematics,
+from robocal.systems.floating_nut.kinematics import (FKNotConverged, FloatingNutKinematics,
                                                         SingularHookeError)
 
 DEG = np.pi / 180
@@ -293,7 +293,7 @@ def test_single_pose_fk_condition_warning(kin, caplog):
 
 
 def test_single_pose_rotations_match_the_geometry_conventions():
-    from robocal.mechanisms.floating_nut_fk import ROTATIONS
+    from robocal.systems.floating_nut.fk import ROTATIONS
     rng = np.random.default_rng(13)
     for euler, rotation in ROTATIONS.items():
         for angles in rng.uniform(-0.5, 0.5, (5, 3)):

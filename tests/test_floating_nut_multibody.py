@@ -10,9 +10,9 @@ import pinocchio as pin
 import pytest
 from lxml import etree
 
-from robocal.mechanisms.floating_nut_geometry import reference_fixture, rotation_matrices
-from robocal.mechanisms.floating_nut_kinematics import FloatingNutKinematics
-from robocal.mechanisms.floating_nut_urdf import build_urdf
+from robocal.systems.floating_nut.geometry import reference_fixture, rotation_matrices
+from robocal.systems.floating_nut.kinematics import FloatingNutKinematics
+from robocal.systems.floating_nut.urdf import build_urdf
 
 DEG = np.pi / 180
 TWO_PI = 2 * np.pi

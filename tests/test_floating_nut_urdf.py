@@ -10,9 +10,10 @@ import pytest
 from lxml import etree
 
 from robocal.errors import InputError
-from robocal.mechanisms.floating_nut_geometry import reference_fixture
-from robocal.mechanisms.floating_nut_kinematics import FloatingNutKinematics
-from robocal.mechanisms.floating_nut_urdf import build_urdf, geometry_from_urdf, write_urdf
+from robocal.systems.floating_nut.geometry import reference_fixture
+from robocal.systems.floating_nut.kinematics import FloatingNutKinematics
+from robocal.systems.floating_nut.urdf import build_urdf, geometry_from_urdf, write_urdf
+from robocal.testing import assert_same_text_and_numbers
 
 DEG = np.pi / 180
 COMMITTED = Path(__file__).resolve().parents[1] / "urdf" / "floating_nut_hexapod.urdf"
@@ -31,7 +32,7 @@ def tilted_geometry(euler="ZYX-fixed"):
 
 
 def test_committed_urdf_is_what_the_builder_writes():
-    assert COMMITTED.read_text(encoding="utf-8") == build_urdf(reference_fixture())
+    assert_same_text_and_numbers(COMMITTED.read_text(encoding="utf-8"), build_urdf(reference_fixture()), what=str(COMMITTED))
 
 
 @pytest.mark.parametrize("geometry", [reference_fixture(), tilted_geometry(), tilted_geometry("XYZ-moving")],

@@ -8,11 +8,11 @@ import pytest
 
 from robocal import load_example
 from robocal.errors import InputError
-from robocal.iso9283 import (distance_characteristics, iso9283_figures, model_attained, pose6,
+from robocal.estimation.iso9283 import (distance_characteristics, iso9283_figures, model_attained, pose6,
                              pose_characteristics, summary)
-from robocal.kinematics import ModelState
-from robocal.parameters import robot_parameters
-from robocal.simulate import perturb, random_configurations
+from robocal.model.kinematics import ModelState
+from robocal.model.parameters import robot_parameters
+from robocal.design.simulate import perturb, random_configurations
 
 
 def _mean(v):

@@ -8,13 +8,13 @@ import pytest
 import yaml
 
 from robocal import load_example
-from robocal.data import write_csv
+from robocal.io.tables import write_csv
 from robocal.errors import InputError
-from robocal.iso9283 import iso9283_figures, pose6
-from robocal.iso9283_cli import add_parser, cmd_iso9283, iso9283_from_config
-from robocal.kinematics import ModelState
-from robocal.parameters import robot_parameters
-from robocal.simulate import perturb, random_configurations
+from robocal.estimation.iso9283 import iso9283_figures, pose6
+from robocal.cli.iso9283 import add_parser, cmd_iso9283, iso9283_from_config
+from robocal.model.kinematics import ModelState
+from robocal.model.parameters import robot_parameters
+from robocal.design.simulate import perturb, random_configurations
 
 SIGMA_M, SIGMA_Q = 2e-5, 5e-5     # tracker noise (m, rad); joint repeatability (rad)
 N_CAL, N_POSES, CYCLES = 50, 3, 6

@@ -9,12 +9,12 @@ import pinocchio as pin
 import pytest
 
 from robocal import load_example
-from robocal.export import calibrated_urdf
-from robocal.kinematics import ModelState
-from robocal.parameters import robot_parameters
-from robocal.problem import Problem
+from robocal.io.urdf_export import calibrated_urdf
+from robocal.model.kinematics import ModelState
+from robocal.model.parameters import robot_parameters
+from robocal.estimation.problem import Problem
 from robocal.residuals import PoseResidual
-from robocal.simulate import perturb, random_configurations, simulate_measurements
+from robocal.design.simulate import perturb, random_configurations, simulate_measurements
 from robocal.testing import assert_calibration_recovers, assert_problem_jacobian
 
 QUAT_ID = [0, 0, 0, 0, 0, 0, 1.0]

@@ -3,13 +3,13 @@ import numpy as np
 import pytest
 
 from laser_psd_cases import DELTA_TRUE, MOUNT, TARGET, exact_readings, joints, plans, readings_for, robot, truth
-from robocal.calibrate import calibrate
+from robocal.estimation.calibrate import calibrate
 from robocal.testing import assert_problem_jacobian
 from robocal.errors import InputError
-from robocal.laser_psd import (LaserMount, beams, calibrate_laser, laser_statements, pairwise_problem,
+from robocal.systems.laser_psd.calibration import (LaserMount, beams, calibrate_laser, laser_statements, pairwise_problem,
                                zero_offset_problem)
-from robocal.laser_psd_pairwise import closest_points, eligible_pairs, lsq_point
-from robocal.laser_psd_plans import fan, multi_fan, patent_fan
+from robocal.systems.laser_psd.pairwise import closest_points, eligible_pairs, lsq_point
+from robocal.systems.laser_psd.plans import fan, multi_fan, patent_fan
 
 DEG = np.pi / 180
 
@@ -178,8 +178,8 @@ def test_full_parameter_mode_is_rank_deficient_and_says_the_scale_is_lost():
 
 def test_scaling_every_length_keeps_every_beam_through_the_point(tmp_path):
     """Why the scale is lost: the same readings fit a robot, mount and PSD point all 1.1 times larger."""
-    from robocal.mechanisms.dh_urdf import IRB1600_145, DHRow, dh_urdf
-    from robocal.robot import load_urdf
+    from robocal.model.dh_urdf import IRB1600_145, DHRow, dh_urdf
+    from robocal.model.robot import load_urdf
     big = [DHRow(1.1 * r.a, r.alpha, 1.1 * r.d, r.theta_offset, r.lower, r.upper) for r in IRB1600_145]
     path = tmp_path / "big.urdf"
     path.write_text(dh_urdf(big, "big", end_link="tool0"))

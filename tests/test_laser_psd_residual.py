@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from laser_psd_cases import MOUNT, exact_readings, joints, readings_for, plans, robot
-from robocal.laser_psd import LaserMount, beams, zero_offset_problem
+from robocal.systems.laser_psd.calibration import LaserMount, beams, zero_offset_problem
 from robocal.testing import assert_problem_jacobian
 
 COAXIAL = LaserMount([0.0, 0.0, 0.08], [0.0, 0.0, 1.0])

@@ -4,13 +4,13 @@ import pytest
 from scipy import stats
 
 from laser_psd_cases import DELTA_TRUE, DIRECTION, MOUNT, ROLL, TARGET, exact_readings, joints, plans, robot, truth
-from robocal.calibrate import calibrate
+from robocal.estimation.calibrate import calibrate
 from robocal.errors import InputError
-from robocal.kinematics import ModelState
-from robocal.laser_psd import reading_noise_covariance, zero_offset_problem
-from robocal.laser_psd_plans import PlannedPose, plan_configurations
-from robocal.laser_psd_simulation import PSD, SimRobot, acquire, average_reads, servo_to_center
-from robocal.parameters import robot_parameters
+from robocal.model.kinematics import ModelState
+from robocal.systems.laser_psd.calibration import reading_noise_covariance, zero_offset_problem
+from robocal.systems.laser_psd.plans import PlannedPose, plan_configurations
+from robocal.systems.laser_psd.simulation import PSD, SimRobot, acquire, average_reads, servo_to_center
+from robocal.model.parameters import robot_parameters
 
 SIGMA_Q = np.radians(0.0005)      # joint-reading noise of the spec's Monte Carlo, per averaged reading
 FREE = [f"joint_{i}.offset" for i in range(2, 7)]

@@ -2,11 +2,11 @@
 import numpy as np
 
 from robocal import load_example
-from robocal.calibrate import calibrate
-from robocal.kinematics import ModelState
-from robocal.laser_psd import LaserMount, laser_statements, zero_offset_problem
-from robocal.laser_psd_plans import multi_fan, plan_configurations
-from robocal.parameters import robot_parameters
+from robocal.estimation.calibrate import calibrate
+from robocal.model.kinematics import ModelState
+from robocal.systems.laser_psd.calibration import LaserMount, laser_statements, zero_offset_problem
+from robocal.systems.laser_psd.plans import multi_fan, plan_configurations
+from robocal.model.parameters import robot_parameters
 
 DELTA = np.radians([0.2, -0.3, 0.25, 0.3, -0.2, 0.25])
 MOUNT = LaserMount([0.0, 0.04, 0.06], [0.0, 0.0, 1.0], frame="tool0")

@@ -10,9 +10,9 @@ import numpy as np
 import pinocchio as pin
 
 from robocal import load_urdf
-from robocal.mechanisms.stewart import StewartGeometry, inverse_kinematics_batch, random_workspace_poses
-from robocal.parameters import ParameterSet, placement_parameters, offset_parameter
-from robocal.problem import Problem
+from robocal.systems.stewart.mechanism import StewartGeometry, inverse_kinematics_batch, random_workspace_poses
+from robocal.model.parameters import ParameterSet, placement_parameters, offset_parameter
+from robocal.estimation.problem import Problem
 from robocal.testing import assert_problem_jacobian
 from robocal.residuals import PointResidual, PoseResidual
 
@@ -54,7 +54,7 @@ def test_pose_and_point_residuals_through_the_loops_match_finite_differences():
 
 
 def test_joint_sensitivity_through_the_loops_matches_finite_differences():
-    from robocal.kinematics import ModelState
+    from robocal.model.kinematics import ModelState
     rng = np.random.default_rng(1)
     robot, ps, act, lengths = stewart_problem(rng, 1)
     ms = ModelState(robot, ps, act)

@@ -6,7 +6,7 @@ import pytest
 
 import robocal
 from robocal.errors import AssemblyError
-from robocal.loops import assemble, inverse_kinematics
+from robocal.model.loops import assemble, inverse_kinematics
 
 A, B, C, D = 0.1, 0.3, 0.25, 0.3  # crank, coupler, rocker, ground (m)
 FOURBAR = f"""<robot name="fourbar">

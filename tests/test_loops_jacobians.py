@@ -6,7 +6,7 @@ import pinocchio as pin
 import pytest
 
 import robocal
-from robocal.loops import Closure, LoopSet
+from robocal.model.loops import Closure, LoopSet
 
 URDF = Path(__file__).resolve().parents[1] / "urdf"
 EPS = 1e-6

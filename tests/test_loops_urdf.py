@@ -5,9 +5,9 @@ import pytest
 
 import robocal
 from robocal.errors import InputError
-from robocal.kinematics import ModelState
-from robocal.loops import assemble
-from robocal.parameters import Parameter, ParameterSet
+from robocal.model.kinematics import ModelState
+from robocal.model.loops import assemble
+from robocal.model.parameters import Parameter, ParameterSet
 from robocal.testing import assert_frame_jacobians
 
 # A planar four-bar (crank 0.1, coupler 0.3, rocker 0.25, ground 0.3 m) closed at the coupler/rocker pin.

@@ -9,12 +9,12 @@ import numpy as np
 import pytest
 from scipy.stats import chi2
 
-import robocal.pcmm_calibration as pc
-from robocal.mechanisms import pcmm_errors as pe
-from robocal.mechanisms.pcmm import (Artefact, reference_artefact, reference_geometry, reference_placements,
+import robocal.systems.pcmm.calibration as pc
+from robocal.systems.pcmm import error_model as pe
+from robocal.systems.pcmm.machine import (Artefact, reference_artefact, reference_geometry, reference_placements,
                                      reference_raw, simulate_probing)
-from robocal.mechanisms.pcmm_kinematics import inverse_kinematics, random_workspace_poses, tip_points
-from robocal.pcmm_calibration import (AcquisitionWarning, CalibrationOptions, calibrate_pcmm, evaluate,
+from robocal.systems.pcmm.kinematics import inverse_kinematics, random_workspace_poses, tip_points
+from robocal.systems.pcmm.calibration import (AcquisitionWarning, CalibrationOptions, calibrate_pcmm, evaluate,
                                       gauge_align, identifiability, predicted_covariance, row_space_projector,
                                       tip_target_poses, validate)
 

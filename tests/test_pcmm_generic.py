@@ -5,23 +5,24 @@ from pathlib import Path
 import numpy as np
 
 from robocal import load_urdf
-from robocal.kinematics import ModelState
-from robocal.mechanisms import pcmm_errors as pe
-from robocal.mechanisms.pcmm import (build_urdf, generic_parameters, reference_artefact, reference_geometry,
+from robocal.model.kinematics import ModelState
+from robocal.systems.pcmm import error_model as pe
+from robocal.systems.pcmm.machine import (build_urdf, generic_parameters, reference_artefact, reference_geometry,
                                      reference_placements, reference_raw, simulate_probing, urdf_configuration,
                                      write_urdf)
-from robocal.mechanisms.pcmm_kinematics import (inverse_kinematics, random_workspace_poses, tip_error_jacobian,
+from robocal.systems.pcmm.kinematics import (inverse_kinematics, random_workspace_poses, tip_error_jacobian,
                                                 tip_points)
-from robocal.pcmm_calibration import evaluate
-from robocal.problem import Problem
+from robocal.systems.pcmm.calibration import evaluate
+from robocal.estimation.problem import Problem
 from robocal.residuals.sphere_artefact import SphereArtefactResidual
+from robocal.testing import assert_same_text_and_numbers
 
 URDF = Path(__file__).parents[1] / "urdf" / "pcmm_4puu.urdf"
 NOM = reference_geometry()
 
 
 def test_shipped_urdf_is_the_builders_reference_machine():
-    assert URDF.read_text(encoding="utf-8") == build_urdf(NOM)
+    assert_same_text_and_numbers(URDF.read_text(encoding="utf-8"), build_urdf(NOM), what=str(URDF))
 
 
 def test_urdf_fk_equals_closed_form_fk_on_a_perturbed_machine(tmp_path):

@@ -3,12 +3,12 @@ import numpy as np
 import pytest
 
 from robocal.errors import AssemblyError, InputError
-from robocal.mechanisms import pcmm_errors as pe
-from robocal.mechanisms.pcmm import reference_geometry, reference_raw
-from robocal.mechanisms.pcmm_kinematics import (axis_directions, forward_kinematics, ik_jacobian,
+from robocal.systems.pcmm import error_model as pe
+from robocal.systems.pcmm.machine import reference_geometry, reference_raw
+from robocal.systems.pcmm.kinematics import (axis_directions, forward_kinematics, ik_jacobian,
                                                 inverse_kinematics, pose_error_jacobian, random_workspace_poses,
                                                 reduced_names, rz, tip_error_jacobian, tip_points)
-from robocal.pcmm_calibration import first_order_pose_correction
+from robocal.systems.pcmm.calibration import first_order_pose_correction
 
 GEO = reference_geometry()
 

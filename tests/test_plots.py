@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from matplotlib.image import imread
 
-from robocal import plots
+from robocal.viz import plots
 from robocal.errors import InputError
 
 MIN_BYTES = 12_000          # an empty 700x360 axes frame is ~5 kB

@@ -4,13 +4,13 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from robocal.calibrate import CalibrationOptions, calibrate
-from robocal.design import DesignMatrix, select_poses
-from robocal.design_candidates import random_candidates
-from robocal.kinematics import ModelState
-from robocal.prediction import (accuracy_curve, pose_jacobians, position_weight, predict_parameters,
+from robocal.estimation.calibrate import CalibrationOptions, calibrate
+from robocal.design.selection import DesignMatrix, select_poses
+from robocal.design.candidates import random_candidates
+from robocal.model.kinematics import ModelState
+from robocal.design.prediction import (accuracy_curve, pose_jacobians, position_weight, predict_parameters,
                                 predict_pose_accuracy)
-from robocal.simulate import perturb, simulate_measurements
+from robocal.design.simulate import perturb, simulate_measurements
 from synthetic_cases import ur5_pose_problem
 
 SIGMA = (5e-5, 5e-5)   # tracker: 50 um, 50 urad
@@ -125,7 +125,7 @@ def test_accuracy_improves_with_more_poses():
 
 
 def test_pose_jacobians_take_approach_directions_for_backlash():
-    from robocal.parameters import robot_parameters
+    from robocal.model.parameters import robot_parameters
     problem = candidates(5, 4)
     joints = problem.joint_names
     problem.params = robot_parameters(problem.robot, joints, "offsets", backlash=True)

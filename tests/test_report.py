@@ -9,8 +9,8 @@ import shutil
 import pytest
 
 from robocal.errors import InputError
-from robocal.report import report_bytes, write_report
-from robocal.view_cli import add_parsers, cmd_report, cmd_view
+from robocal.viz.report import report_bytes, write_report
+from robocal.cli.view import add_parsers, cmd_report, cmd_view
 from test_viz_scene_data import all_types_case, all_types_scene, demo_result_dir
 
 
@@ -57,7 +57,7 @@ def test_report_without_scene_still_has_tables(tmp_path):
 
 def test_report_bytes_from_objects_in_memory():
     problem, result, before = all_types_case()
-    from robocal.scene_data import scene_bytes
+    from robocal.viz.scene import scene_bytes
     page = report_bytes(result, scene_bytes(problem, result, before), meshes=False).decode()
     # one residual plot per block (6) + histograms + parameters + singular values
     assert page.count('src="data:image/png') == 9

@@ -4,8 +4,8 @@ import pinocchio as pin
 import pytest
 
 from robocal import load_example
-from robocal.parameters import robot_parameters
-from robocal.problem import Problem
+from robocal.model.parameters import robot_parameters
+from robocal.estimation.problem import Problem
 from robocal.testing import assert_problem_jacobian
 from robocal.residuals import (BallBarResidual, CylinderResidual, LaserLineResidual, PlaneResidual,
                                PointResidual, PoseResidual, RigidPointsResidual, SphereResidual)
@@ -78,8 +78,8 @@ def test_frame_parameter_moves_joints_hanging_below_it():
 @pytest.mark.parametrize("order", ["parent first", "child first"])
 def test_calibrated_frame_below_a_calibrated_frame_takes_both_changes_in_any_order(order):
     """tcp hangs on tool0; both calibrated: tcp = tool0 exp(d_tool0) rel exp(d_tcp), whatever the order."""
-    from robocal.kinematics import ModelState
-    from robocal.parameters import ParameterSet
+    from robocal.model.kinematics import ModelState
+    from robocal.model.parameters import ParameterSet
     rng = np.random.default_rng(11)
     robot = load_example("ur5")
     rel = pin.SE3(pin.rpy.rpyToMatrix(0.1, -0.2, 0.3), np.array([0.01, 0.02, 0.1]))

@@ -2,8 +2,8 @@
 import numpy as np
 import pytest
 
-from robocal.calibrate import CalibrationOptions, calibrate
-from robocal.simulate import perturb, random_configurations, simulate_measurements
+from robocal.estimation.calibrate import CalibrationOptions, calibrate
+from robocal.design.simulate import perturb, random_configurations, simulate_measurements
 from synthetic_cases import identifiable_names, max_pose_error, ur5_pose_problem
 
 

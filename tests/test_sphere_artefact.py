@@ -4,8 +4,8 @@ import pytest
 
 from robocal import load_example
 from robocal.errors import InputError
-from robocal.parameters import robot_parameters
-from robocal.problem import Problem
+from robocal.model.parameters import robot_parameters
+from robocal.estimation.problem import Problem
 from robocal.testing import assert_problem_jacobian
 from robocal.residuals.sphere_artefact import SphereArtefactResidual, artefact_rows
 

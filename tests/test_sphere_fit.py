@@ -3,8 +3,8 @@ import numpy as np
 import pytest
 
 from robocal.errors import InputError
-from robocal.mechanisms.pcmm import cap_directions
-from robocal.sphere_fit import fit_sphere, sphere_fit_sensitivity
+from robocal.systems.pcmm.machine import cap_directions
+from robocal.estimation.sphere_fit import fit_sphere, sphere_fit_sensitivity
 
 C0, R0 = np.array([0.1, -0.2, -0.6]), 0.0137
 

@@ -10,11 +10,11 @@ import numpy as np
 import pytest
 
 import robocal
-from robocal import stewart_calibration as sc
-from robocal import stewart_modes as sm
-from robocal.calibrate import calibrate
-from robocal.identifiability import select_base_parameters
-from robocal.problem import Problem
+from robocal.systems.stewart import calibration as sc
+from robocal.systems.stewart import modes as sm
+from robocal.estimation.calibrate import calibrate
+from robocal.estimation.identifiability import select_base_parameters
+from robocal.estimation.problem import Problem
 
 URDF = Path(__file__).resolve().parents[1] / "urdf" / "stewart_3_3.urdf"
 TOOL = sm.Tool(0.2, 0.003)

@@ -3,10 +3,10 @@ dimensions at the spec's threshold (1e-10 relative singular value) and the repor
 import numpy as np
 import pytest
 
-from robocal.calibrate import calibrate
-from robocal.problem import Problem
-from robocal import stewart_calibration as sc
-from robocal import stewart_modes as sm
+from robocal.estimation.calibrate import calibrate
+from robocal.estimation.problem import Problem
+from robocal.systems.stewart import calibration as sc
+from robocal.systems.stewart import modes as sm
 from test_stewart_calibration_recovery import TOOL, _contacts, robot, truth_params  # noqa: F401 (fixture)
 
 ANGLES = np.radians([15, 7.5, 0, -7.5, -15])

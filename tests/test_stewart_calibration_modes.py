@@ -6,12 +6,12 @@ import pinocchio as pin
 import pytest
 
 from robocal.errors import InputError
-from robocal.loops import assemble
-from robocal.mechanisms import stewart as st
-from robocal.problem import Problem
-from robocal import stewart_calibration as sc
-from robocal import stewart_modes as sm
-from robocal.stewart_two_stage import ik_problem
+from robocal.model.loops import assemble
+from robocal.systems.stewart import mechanism as st
+from robocal.estimation.problem import Problem
+from robocal.systems.stewart import calibration as sc
+from robocal.systems.stewart import modes as sm
+from robocal.systems.stewart.two_stage import ik_problem
 from test_stewart_calibration_recovery import TOOL, robot, truth_params  # noqa: F401 (fixture)
 
 

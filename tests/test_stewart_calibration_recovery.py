@@ -7,13 +7,13 @@ import numpy as np
 import pytest
 
 import robocal
-from robocal.calibrate import CalibrationOptions, calibrate
+from robocal.estimation.calibrate import CalibrationOptions, calibrate
 from robocal.errors import IdentifiabilityError
-from robocal.problem import Problem
+from robocal.estimation.problem import Problem
 from robocal.residuals import PoseResidual
-from robocal import stewart_calibration as sc
-from robocal import stewart_modes as sm
-from robocal.stewart_two_stage import calibrate_two_stage
+from robocal.systems.stewart import calibration as sc
+from robocal.systems.stewart import modes as sm
+from robocal.systems.stewart.two_stage import calibrate_two_stage
 
 URDF = Path(__file__).resolve().parents[1] / "urdf" / "stewart_6_6.urdf"
 TOOL = sm.Tool(0.2, 0.003)
@@ -263,7 +263,7 @@ def test_two_stage_solve_recovers_from_300_mm_initial_errors(robot):
 def test_patent_newton_converges_quadratically_and_agrees_with_lm(robot):
     """Spec test 5: the patent's Newton-Raphson (Eqs. 5-8) on test 4's set-up (T fixed, 24 unknowns) with
     6 poses and e = 1e-3 mm: converges quadratically in at most 5 iterations, and agrees with LM to 1e-8 mm."""
-    from robocal.newton import patent_newton
+    from robocal.systems.stewart.newton import patent_newton
     rng = np.random.default_rng(5)
     # the spec's run starts at F = 4e-2 mm^2 over 36 rows (~0.03 mm RMS): Newton's quadratic basin. From
     # 1 mm errors the second-order term dominates this weak design's smallest directions and plain Newton

@@ -8,8 +8,8 @@ import pytest
 
 import robocal
 from robocal.errors import AssemblyError, InputError
-from robocal.loops import assemble, inverse_kinematics as generic_ik
-from robocal.mechanisms import stewart as st, stewart_fk
+from robocal.model.loops import assemble, inverse_kinematics as generic_ik
+from robocal.systems.stewart import fk as stewart_fk, mechanism as st
 
 URDF = Path(__file__).resolve().parents[1] / "urdf"
 GEOMETRIES = {"6_6": st.StewartGeometry.spec_6_6, "3_3": st.StewartGeometry.spec_3_3}

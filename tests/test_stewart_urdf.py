@@ -7,8 +7,9 @@ import pinocchio as pin
 import pytest
 
 import robocal
-from robocal.loops import assemble
-from robocal.mechanisms import stewart as st
+from robocal.model.loops import assemble
+from robocal.systems.stewart import mechanism as st
+from robocal.testing import assert_same_text_and_numbers
 
 URDF = Path(__file__).resolve().parents[1] / "urdf"
 GEOMETRIES = {"6_6": st.StewartGeometry.spec_6_6, "3_3": st.StewartGeometry.spec_3_3}
@@ -17,7 +18,7 @@ GEOMETRIES = {"6_6": st.StewartGeometry.spec_6_6, "3_3": st.StewartGeometry.spec
 @pytest.mark.parametrize("name", sorted(GEOMETRIES))
 def test_checked_in_urdf_is_what_the_builder_writes(name):
     text = (URDF / f"stewart_{name}.urdf").read_text()
-    assert text == st.build_urdf(GEOMETRIES[name](), f"stewart_{name}")
+    assert_same_text_and_numbers(text, st.build_urdf(GEOMETRIES[name](), f"stewart_{name}"), what=f"stewart_{name}.urdf")
 
 
 @pytest.mark.parametrize("name", sorted(GEOMETRIES))

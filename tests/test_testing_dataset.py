@@ -3,12 +3,12 @@ from importlib.resources import files
 
 import pytest
 
-from robocal.calibrate import calibrate
-from robocal.config import load_config
-from robocal.export import export_urdf
+from robocal.estimation.calibrate import calibrate
+from robocal.io.config import load_config
+from robocal.io.urdf_export import export_urdf
 from robocal.testing import assert_reproduces_dataset
 
-DEMO = files("robocal") / "data" / "demo" / "ur5_calibrate.yaml"
+DEMO = files("robocal.io") / "demo" / "ur5_calibrate.yaml"
 SIGMA = 5e-5   # the demo's stated (and simulated) noise, m and rad
 # At the fit the 180 length rows (and the 180 angle rows) are ~N(0, sigma) less the fitted directions:
 # RMS = sigma sqrt((m - n) / m) <= sigma, and RMS^2 / sigma^2 has a spread of sqrt(2 / 180) = 0.11, so

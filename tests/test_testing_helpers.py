@@ -3,9 +3,9 @@ import numpy as np
 import pytest
 
 from robocal import load_example
-from robocal.kinematics import ModelState, SampleState
-from robocal.parameters import robot_parameters
-from robocal.problem import Problem
+from robocal.model.kinematics import ModelState, SampleState
+from robocal.model.parameters import robot_parameters
+from robocal.estimation.problem import Problem
 from robocal.residuals import PointResidual
 from robocal.testing import (assert_calibration_recovers, assert_frame_jacobians, assert_jacobian_matches_fd,
                              assert_problem_jacobian, assert_urdf_loads, synthetic_pose_case)
@@ -166,7 +166,7 @@ FOURBAR = """<robot name="fourbar">
 
 
 def test_closed_chain_assembles_at_home_and_an_impossible_one_is_reported(tmp_path):
-    """Applies to robots with loop closures (robocal.loops); planar four-bar, crank at 0 = home."""
+    """Applies to robots with loop closures (robocal.model.loops); planar four-bar, crank at 0 = home."""
     good = tmp_path / "fourbar.urdf"
     good.write_text(FOURBAR.replace("COUPLER", "0.3"))
     robot = assert_urdf_loads(good, ["pin.link1"])
@@ -177,3 +177,13 @@ def test_closed_chain_assembles_at_home_and_an_impossible_one_is_reported(tmp_pa
     short.write_text(FOURBAR.replace("COUPLER", "0.02"))
     with pytest.raises(AssertionError, match="closures do not assemble at the home pose"):
         assert_urdf_loads(short, home=[0.0])
+
+
+def test_same_text_and_numbers_tolerates_last_bits_only():
+    from robocal.testing import assert_same_text_and_numbers
+    a = '<origin xyz="0.1 0.55 -0.2" rpy="0 0 1.5707963267948966"/>'
+    assert_same_text_and_numbers(a, a.replace("0.55", "0.55000000000000004"))   # one ulp: same
+    with pytest.raises(AssertionError, match="numbers differ"):
+        assert_same_text_and_numbers(a, a.replace("0.55", "0.550000001"))       # 1 nm: not the same
+    with pytest.raises(AssertionError, match="outside its numbers"):
+        assert_same_text_and_numbers(a, a.replace("rpy", "xyz"))

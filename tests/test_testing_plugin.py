@@ -11,24 +11,24 @@ import pytest
 
 # Imported here, before any in-process pytester run: pytester drops the modules a run imported, and
 # numpy's C extensions (pulled in by scipy) cannot be loaded twice in one process.
-from robocal.calibrate import calibrate
-from robocal.config import load_config
-from robocal.export import export_urdf
+from robocal.estimation.calibrate import calibrate
+from robocal.io.config import load_config
+from robocal.io.urdf_export import export_urdf
 import robocal.testing  # noqa: F401  (scipy.stats)
 
 pytest_plugins = ["pytester"]
 
 ROOT = Path(__file__).resolve().parents[1]
-DEMO = Path(str(files("robocal") / "data" / "demo" / "ur5_calibrate.yaml"))
+DEMO = Path(str(files("robocal.io") / "demo" / "ur5_calibrate.yaml"))
 
 
 def plugin_args() -> list[str]:
-    """`-p robocal.pytest_plugin` unless the `robocal` pytest11 entry point already loads it
+    """`-p robocal.testing.pytest_plugin` unless the `robocal` pytest11 entry point already loads it
     (giving both would register the module twice)."""
     installed = any(ep.name == "robocal" for ep in entry_points(group="pytest11"))
     if installed and not os.environ.get("PYTEST_DISABLE_PLUGIN_AUTOLOAD"):
         return []
-    return ["-p", "robocal.pytest_plugin"]
+    return ["-p", "robocal.testing.pytest_plugin"]
 
 
 SUITE = """

@@ -3,8 +3,8 @@ from pathlib import Path
 
 import numpy as np
 
-from robocal.calibrate import calibrate
-from robocal.config import load_config
+from robocal.estimation.calibrate import calibrate
+from robocal.io.config import load_config
 
 CONFIG = Path(__file__).parents[1] / "examples" / "tiago_mocap" / "offsets_bl.yaml"
 

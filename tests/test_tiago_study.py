@@ -11,8 +11,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from robocal.calibrate import calibrate
-from robocal.evaluation import posture_groups, setup_for_data, term_errors
+from robocal.estimation.calibrate import calibrate
+from robocal.estimation.evaluation import posture_groups, setup_for_data, term_errors
 
 HERE = Path(__file__).parents[1] / "examples" / "tiago_mocap"
 VALIDATION = HERE / "data" / "qualisys_2021-11-26_static_postures.csv"

@@ -133,14 +133,14 @@ def test_recording_window_keeps_the_last_command_per_path_and_deletes_subtrees()
 
 
 def test_demo_result_scene_draws_pose_blocks():
-    from robocal.scene_data import read_scene
+    from robocal.viz.scene import read_scene
     view = _view(scene=read_scene(demo_result_dir()))
     assert view.window.nodes[f"{ROOT}/measurements/tracker/residual_after"]["object"] is not None
     assert f"{ROOT}/frames/tool0" in view.window.nodes
 
 
 def test_sample_label_shows_the_position_residual_in_mm():
-    from robocal.scene_data import read_scene
+    from robocal.viz.scene import read_scene
     scene = read_scene(demo_result_dir())
     view = SceneView(scene, meshes=False)
     r = np.array(scene["blocks"][0]["residual_after"][4])
@@ -149,7 +149,7 @@ def test_sample_label_shows_the_position_residual_in_mm():
 
 
 def test_pose_blocks_draw_triads_with_the_rotation_error_magnified():
-    from robocal.scene_data import read_scene
+    from robocal.viz.scene import read_scene
     import umsgpack
     view = _view(scene=read_scene(demo_result_dir()))
     b = view.scene["blocks"][0]

@@ -4,11 +4,11 @@ from functools import lru_cache
 
 import numpy as np
 
-from robocal.calibrate import calibrate
-from robocal.problem import Problem
+from robocal.estimation.calibrate import calibrate
+from robocal.estimation.problem import Problem
 from robocal.residuals import PoseResidual
-from robocal.scene_data import scene_bytes
-from robocal.simulate import perturb, simulate_measurements
+from robocal.viz.scene import scene_bytes
+from robocal.design.simulate import perturb, simulate_measurements
 from robocal.viz import SceneView
 from test_loop_sensitivities import stewart_problem
 

@@ -15,15 +15,15 @@ import pinocchio as pin
 import pytest
 
 from robocal import load_example
-from robocal.calibrate import calibrate
+from robocal.estimation.calibrate import calibrate
 from robocal.errors import InputError
-from robocal.kinematics import ModelState
-from robocal.parameters import robot_parameters
-from robocal.problem import Problem
+from robocal.model.kinematics import ModelState
+from robocal.model.parameters import robot_parameters
+from robocal.estimation.problem import Problem
 from robocal.residuals import (BallBarResidual, CylinderResidual, LaserLineResidual, PlaneResidual, PointResidual,
                                SphereResidual)
-from robocal.scene_data import link_tree, read_scene, scene_bytes, scene_data
-from robocal.simulate import perturb, random_configurations, simulate_measurements
+from robocal.viz.scene import link_tree, read_scene, scene_bytes, scene_data
+from robocal.design.simulate import perturb, random_configurations, simulate_measurements
 
 ARTEFACT_TYPES = ("plane", "sphere", "cylinder", "ball_bar", "laser_line")
 
@@ -72,10 +72,10 @@ atexit.register(shutil.rmtree, _TMP, True)
 @lru_cache(maxsize=1)
 def demo_result_dir() -> Path:
     """The output folder of the demo config (UR5, 60 tracker poses), with scene.json, as `robocal calibrate` will write it."""
-    from robocal.config import load_config
-    from robocal.output import write_results
+    from robocal.io.config import load_config
+    from robocal.io.output import write_results
 
-    setup = load_config(files("robocal") / "data" / "demo" / "ur5_calibrate.yaml")
+    setup = load_config(files("robocal.io") / "demo" / "ur5_calibrate.yaml")
     before = setup.problem.params.copy()
     result = calibrate(setup.problem, setup.options)
     out = Path(_TMP) / "demo"

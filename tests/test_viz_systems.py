@@ -8,21 +8,21 @@ from pathlib import Path
 import numpy as np
 
 from robocal import load_urdf
-from robocal.calibrate import calibrate
-from robocal.config import load_config
-from robocal.laser_psd import calibrate_laser, zero_offset_problem
-from robocal.mechanisms import pcmm_errors as pe
-from robocal.mechanisms.pcmm import (reference_artefact, reference_geometry, reference_placements, reference_raw,
+from robocal.estimation.calibrate import calibrate
+from robocal.io.config import load_config
+from robocal.systems.laser_psd.calibration import calibrate_laser, zero_offset_problem
+from robocal.systems.pcmm import error_model as pe
+from robocal.systems.pcmm.machine import (reference_artefact, reference_geometry, reference_placements, reference_raw,
                                      simulate_probing)
-from robocal.parameters import ParameterSet, offset_parameter, placement_parameters
-from robocal.pcmm_calibration import calibrate_pcmm, evaluate
-from robocal.problem import Problem
+from robocal.model.parameters import ParameterSet, offset_parameter, placement_parameters
+from robocal.systems.pcmm.calibration import calibrate_pcmm, evaluate
+from robocal.estimation.problem import Problem
 from robocal.residuals import PoseResidual
-from robocal.scene_data import read_scene, scene_bytes
-from robocal.scene_pcmm import write_pcmm_scene
-from robocal.simulate import perturb, simulate_measurements
+from robocal.viz.scene import read_scene, scene_bytes
+from robocal.systems.pcmm.scene import write_pcmm_scene
+from robocal.design.simulate import perturb, simulate_measurements
 from robocal.viz import SceneView
-from robocal.viz_shapes import _se3
+from robocal.viz.shapes import _se3
 
 import laser_psd_cases as lc
 

@@ -26,8 +26,8 @@ from pathlib import Path
 
 import numpy as np
 
-from robocal.calibrate import calibrate
-from robocal.evaluation import (RANGE_MARGIN, cross_validate, edge_folds, kfold, posture_groups, range_excess,
+from robocal.estimation.calibrate import calibrate
+from robocal.estimation.evaluation import (RANGE_MARGIN, cross_validate, edge_folds, kfold, posture_groups, range_excess,
                                 setup_for_data, term_errors)
 
 HERE = Path(__file__).resolve().parent
@@ -159,7 +159,7 @@ def write_plots(reference: Fit, best: Fit, folder: Path) -> list[Path]:
     """PNG figures for docs/tiago_mocap.md: validation errors of the reference joint_offset model and the
     chosen one (per posture by group, per axis), the chosen model's play and load parameters, and the
     singular values of its identification Jacobian."""
-    from robocal import plots
+    from robocal.viz import plots
     folder.mkdir(parents=True, exist_ok=True)
     names = (reference.label, "chosen")
     out = [plots.errors_by_group({f"{reference.label} (reference)": np.linalg.norm(reference.val_errors, axis=1),

@@ -1,24 +1,24 @@
 """Dynamics: actuators, friction, external force from motor currents, force-regulated path
 following (seed 004), a servo simulator, and dynamic identification. See docs/dynamics.md."""
-from .actuators import ActuatorModel
-from .differentiation import TickDifferentiator, differentiate
-from .environment import ConstantForce, Environment, ViscousLoad, Wall
-from .excitation import FourierTrajectory, fourier_excitation
-from .external_force import ExternalForceEstimate, ExternalForceEstimator
-from .force_sensor import ForceSensorSource
-from .friction import FrictionModel
-from .generator import PathGenerator, Setpoint
-from .identification import (DynamicIdentificationResult, PayloadResult, Segment, identify_dynamics,
+from robocal.dynamics.actuators import ActuatorModel
+from robocal.dynamics.differentiation import TickDifferentiator, differentiate
+from robocal.dynamics.environment import ConstantForce, Environment, ViscousLoad, Wall
+from robocal.dynamics.excitation import FourierTrajectory, fourier_excitation
+from robocal.dynamics.external_force import ExternalForceEstimate, ExternalForceEstimator
+from robocal.dynamics.force_sensor import ForceSensorSource
+from robocal.dynamics.friction import FrictionModel
+from robocal.dynamics.generator import PathGenerator, Setpoint
+from robocal.dynamics.identification import (DynamicIdentificationResult, PayloadResult, Segment, identify_dynamics,
                              identify_payload)
-from .instructions import MotionInstruction, MotionParams, movejf, movelf
-from .inverse_kinematics import IKFailure, solve_ik
-from .joint_state import JointState, from_measurements, from_setpoints
-from .limits import project_limits
-from .path import CircularPath, JointPath, LinearPath, SplinePath
-from .payload import payload_inertia, with_payload
-from .regulator import TangentialForceRegulator
-from .simulator import RobotSimulator, servo_gains
-from .wrench import WrenchEstimate, WrenchMapper
+from robocal.dynamics.instructions import MotionInstruction, MotionParams, movejf, movelf
+from robocal.dynamics.inverse_kinematics import IKFailure, solve_ik
+from robocal.dynamics.joint_state import JointState, from_measurements, from_setpoints
+from robocal.dynamics.limits import project_limits
+from robocal.dynamics.path import CircularPath, JointPath, LinearPath, SplinePath
+from robocal.dynamics.payload import payload_inertia, with_payload
+from robocal.dynamics.regulator import TangentialForceRegulator
+from robocal.dynamics.simulator import RobotSimulator, servo_gains
+from robocal.dynamics.wrench import WrenchEstimate, WrenchMapper
 
 __all__ = [
     "ActuatorModel", "FrictionModel", "differentiate", "TickDifferentiator", "JointState", "from_measurements",

@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import InputError
+from robocal.errors import InputError
 
 
 def _vector(value, n: int, name: str, default: float) -> np.ndarray:

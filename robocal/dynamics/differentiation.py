@@ -16,7 +16,7 @@ from collections import deque
 
 import numpy as np
 
-from ..errors import InputError
+from robocal.errors import InputError
 
 SCHEMES = ("central", "backward", "savgol")
 

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import InputError
+from robocal.errors import InputError
 
 
 def _unit(direction) -> np.ndarray:

@@ -13,10 +13,10 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from ..errors import InputError
-from .actuators import ActuatorModel
-from .friction import FrictionModel
-from .wrench import WrenchEstimate, WrenchMapper
+from robocal.errors import InputError
+from robocal.dynamics.actuators import ActuatorModel
+from robocal.dynamics.friction import FrictionModel
+from robocal.dynamics.wrench import WrenchEstimate, WrenchMapper
 
 _LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from ..errors import InputError
+from robocal.errors import InputError
 
 GRAVITY = np.array([0.0, 0.0, -9.81])
 

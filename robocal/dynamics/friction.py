@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import InputError
+from robocal.errors import InputError
 
 #: Names of the per-joint friction parameters, in regressor column order.
 FRICTION_TERMS = ("coulomb", "viscous", "offset", "stribeck")

@@ -11,11 +11,11 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from ..errors import InputError
-from .instructions import MotionInstruction
-from .inverse_kinematics import solve_ik
-from .limits import project_limits
-from .regulator import TangentialForceRegulator
+from robocal.errors import InputError
+from robocal.dynamics.instructions import MotionInstruction
+from robocal.dynamics.inverse_kinematics import solve_ik
+from robocal.dynamics.limits import project_limits
+from robocal.dynamics.regulator import TangentialForceRegulator
 
 
 @dataclass

@@ -4,7 +4,7 @@ the torque-constant scale when a known reference fixes it.
 Model, per sample: alpha * tau_meas = Y(q, v, a) pi + Phi(v) phi + Y_p pi_p
   tau_meas = actuator.torque(I) with the nominal torque constants; alpha (global or per joint) the
   unknown scale of the torque constants; pi the inertial parameters (only base combinations are
-  identifiable: `robocal.identifiability.select_base_parameters` picks them deterministically);
+  identifiable: `robocal.estimation.identifiability.select_base_parameters` picks them deterministically);
   phi friction per joint; pi_p a known payload (segments recorded with it; zero otherwise).
 Without a segment carrying a known payload the equations are homogeneous in (alpha, pi, phi): the
 scale is unobservable, the result says so and keeps alpha = 1 (the nominal torque constants).
@@ -19,11 +19,11 @@ from dataclasses import dataclass, field
 import numpy as np
 import pinocchio as pin
 
-from ..errors import InputError
-from ..identifiability import BaseSelection, covariance, select_base_parameters
-from .actuators import ActuatorModel
-from .friction import FRICTION_TERMS, FrictionModel
-from .inertial import parameter_names, parameter_vector, physical_consistency, torque_regressor, with_parameters
+from robocal.errors import InputError
+from robocal.estimation.identifiability import BaseSelection, covariance, select_base_parameters
+from robocal.dynamics.actuators import ActuatorModel
+from robocal.dynamics.friction import FRICTION_TERMS, FrictionModel
+from robocal.dynamics.inertial import parameter_names, parameter_vector, physical_consistency, torque_regressor, with_parameters
 
 log = logging.getLogger(__name__)
 

@@ -13,10 +13,10 @@ from dataclasses import dataclass, field
 import numpy as np
 import pinocchio as pin
 
-from ..errors import InputError
-from .inverse_kinematics import IKFailure, solve_ik
-from .limits import check_c
-from .path import JointPath, LinearPath
+from robocal.errors import InputError
+from robocal.dynamics.inverse_kinematics import IKFailure, solve_ik
+from robocal.dynamics.limits import check_c
+from robocal.dynamics.path import JointPath, LinearPath
 
 log = logging.getLogger(__name__)
 

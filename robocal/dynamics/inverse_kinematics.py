@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from ..errors import InputError
+from robocal.errors import InputError
 
 _LOCAL = pin.ReferenceFrame.LOCAL
 

@@ -7,8 +7,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import InputError
-from .differentiation import differentiate
+from robocal.errors import InputError
+from robocal.dynamics.differentiation import differentiate
 
 
 @dataclass

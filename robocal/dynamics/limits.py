@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import InputError
+from robocal.errors import InputError
 
 
 def check_c(c: float) -> float:

@@ -10,7 +10,7 @@ import numpy as np
 import pinocchio as pin
 from scipy.interpolate import CubicSpline
 
-from ..errors import InputError
+from robocal.errors import InputError
 
 _LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 

@@ -1,16 +1,16 @@
 """Measurement types. Each is one small file; `REGISTRY` maps config names to classes."""
-from .ball_bar import BallBarResidual
-from .base import Residual, Term
-from .cylinder import CylinderResidual
-from .laser_line import LaserLineResidual
-from .plane import PlaneResidual
-from .point import PointResidual
-from .pose import PoseResidual
-from .rigid_points import RigidPointsResidual
-from .sphere import SphereResidual
-from .sphere_artefact import SphereArtefactResidual
-from .strut_ik import StrutIKResidual
-from .tool_axis import ToolAxisResidual
+from robocal.residuals.ball_bar import BallBarResidual
+from robocal.residuals.base import Residual, Term
+from robocal.residuals.cylinder import CylinderResidual
+from robocal.residuals.laser_line import LaserLineResidual
+from robocal.residuals.plane import PlaneResidual
+from robocal.residuals.point import PointResidual
+from robocal.residuals.pose import PoseResidual
+from robocal.residuals.rigid_points import RigidPointsResidual
+from robocal.residuals.sphere import SphereResidual
+from robocal.residuals.sphere_artefact import SphereArtefactResidual
+from robocal.residuals.strut_ik import StrutIKResidual
+from robocal.residuals.tool_axis import ToolAxisResidual
 
 REGISTRY: dict[str, type[Residual]] = {cls.type_name: cls for cls in (
     PoseResidual, PointResidual, RigidPointsResidual, PlaneResidual, SphereResidual, CylinderResidual,

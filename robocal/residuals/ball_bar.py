@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import Aux, Residual, Term, point_jacobian, vector_aux
+from robocal.residuals.base import Aux, Residual, Term, point_jacobian, vector_aux
 
 
 class BallBarResidual(Residual):

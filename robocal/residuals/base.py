@@ -5,7 +5,7 @@ its derivative with respect to a LOCAL right twist of every frame it looks at (M
 its derivative with respect to its own set-up quantities ("auxiliary" parameters: a plane, a sphere
 centre, a ball-bar offset). Known set-up quantities are auxiliary parameters with vary=False, so the
 same code serves the known and the unknown case. The problem layer turns frame twists into parameter
-columns; see robocal.kinematics.
+columns; see robocal.model.kinematics.
 """
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ from typing import ClassVar, Sequence
 import numpy as np
 import pinocchio as pin
 
-from ..parameters import Parameter
+from robocal.model.parameters import Parameter
 
 
 @dataclass

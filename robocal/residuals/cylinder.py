@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import Aux, Residual, Term, basis_from_normal, point_jacobian, tilted_direction, vector_aux
+from robocal.residuals.base import Aux, Residual, Term, basis_from_normal, point_jacobian, tilted_direction, vector_aux
 
 
 class CylinderResidual(Residual):

@@ -22,8 +22,8 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from ..errors import InputError
-from .base import Aux, Residual, Term, basis_from_normal, skew, tilted_direction, vector_aux
+from robocal.errors import InputError
+from robocal.residuals.base import Aux, Residual, Term, basis_from_normal, skew, tilted_direction, vector_aux
 
 MIN_ALIGNMENT = 1e-6     # 1 + z0.w below this: the beam runs against z0 and b1, b2 are undefined
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from .base import Residual, Term
+from robocal.residuals.base import Residual, Term
 
 
 class PoseResidual(Residual):

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..parameters import ParameterSet
+from robocal.model.parameters import ParameterSet
 
 
 def prior_rows(params: ParameterSet) -> tuple[np.ndarray, np.ndarray, list[str]]:

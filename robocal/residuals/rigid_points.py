@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import Residual, Term, point_jacobian, vector_aux
+from robocal.residuals.base import Residual, Term, point_jacobian, vector_aux
 
 
 class RigidPointsResidual(Residual):

@@ -1,7 +1,7 @@
 """A multi-sphere artefact probed by a touch probe: sphere-centre distances and sphere radii.
 
 One term = one placement of the artefact. It owns the probe hits (samples) on each of its S spheres,
-fits a sphere to each sphere's tip-centre points (geometric least squares, robocal.sphere_fit) and
+fits a sphere to each sphere's tip-centre points (geometric least squares, robocal.estimation.sphere_fit) and
 returns S(S-1)/2 + S rows:
 
     distance rows (j < m, lexicographic)  |c_j - c_m| - D_ref[j, m]
@@ -17,9 +17,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import InputError
-from ..sphere_fit import fit_sphere, sphere_fit_sensitivity
-from .base import Aux, Residual, Term, point_jacobian
+from robocal.errors import InputError
+from robocal.estimation.sphere_fit import fit_sphere, sphere_fit_sensitivity
+from robocal.residuals.base import Aux, Residual, Term, point_jacobian
 
 
 def pair_indices(n_spheres: int) -> list[tuple[int, int]]:

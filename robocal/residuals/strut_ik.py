@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import Residual, Term
+from robocal.residuals.base import Residual, Term
 
 
 class StrutIKResidual(Residual):

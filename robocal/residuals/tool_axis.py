@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from .base import Residual, Term, basis_from_normal, skew
+from robocal.residuals.base import Residual, Term, basis_from_normal, skew
 
 
 class ToolAxisResidual(Residual):

@@ -1,0 +1,160 @@
+"""Levenberg-Marquardt on an analytic Jacobian, with robust losses and a convergence record.
+
+Written here rather than taken from scipy.optimize.least_squares because robocal needs what that
+does not offer together: one robust weight per measurement term (a 3D point or a 6D pose is one
+outlier, not three or six), a per-iteration record for the progress display and the report, and
+box bounds with the 'lm' method. Names follow scipy (x, cost, fun, jac, status, message, success,
+ftol/xtol/gtol, loss, f_scale).
+
+Step: (J^T J + lam D^2) dx = -J^T r, solved through the QR factor of J (no squared conditioning);
+D holds Marquardt's column scales (the largest column norms seen so far).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+import scipy.linalg
+
+from robocal.errors import AssemblyError
+
+LOSSES = ("linear", "huber", "soft_l1")
+
+
+@dataclass
+class Iteration:
+    iteration: int
+    cost: float
+    step_norm: float
+    damping: float
+    gradient_norm: float
+
+
+@dataclass
+class SolveResult:
+    x: np.ndarray
+    cost: float
+    fun: np.ndarray
+    jac: np.ndarray
+    status: int
+    message: str
+    nit: int
+    history: list[Iteration] = field(default_factory=list)
+    weights: np.ndarray | None = None    # robust row weights at the solution (1 for the linear loss)
+
+    @property
+    def success(self) -> bool:
+        return self.status > 0
+
+
+def robust_weights(r: np.ndarray, group: np.ndarray, loss: str, f_scale: float) -> tuple[np.ndarray, float]:
+    """Row weights sqrt(rho'(s_g)) and the cost 1/2 sum d_g rho(s_g).
+
+    s_g is the mean square per row of term g (d_g rows), so the knee f_scale means the same, in sigmas,
+    for a 1-row contact and a 6-row pose.
+    """
+    if not len(r):
+        return np.zeros(0), 0.0
+    d = np.bincount(group).astype(float)
+    s = np.bincount(group, weights=r * r) / np.maximum(d, 1.0)
+    c2 = f_scale ** 2
+    if loss == "linear":
+        rho, drho = s, np.ones_like(s)
+    elif loss == "huber":
+        big = s > c2
+        rho = np.where(big, 2.0 * f_scale * np.sqrt(s) - c2, s)
+        drho = np.where(big, f_scale / np.sqrt(np.maximum(s, c2)), 1.0)
+    elif loss == "soft_l1":
+        t = np.sqrt(1.0 + s / c2)
+        rho, drho = 2.0 * c2 * (t - 1.0), 1.0 / t
+    else:
+        raise ValueError(f"unknown loss '{loss}'; use one of {LOSSES}")
+    return np.sqrt(drho)[group], 0.5 * float((d * rho).sum())
+
+
+def levenberg_marquardt(fun: Callable, x0: np.ndarray, lower=None, upper=None, loss: str = "linear",
+                        f_scale: float = 1.0, max_iterations: int = 100, ftol: float = 1e-12,
+                        xtol: float = 1e-12, gtol: float = 1e-10, callback: Callable | None = None) -> SolveResult:
+    """Minimise 1/2 sum rho(|r_g|^2) over x within [lower, upper].
+
+    fun(x) -> (r, J, group): residual (m,), Jacobian (m, n), term id of each row (m,).
+    callback(Iteration) is called after every accepted step.
+    """
+    n = len(x0)
+    lower = np.full(n, -np.inf) if lower is None else np.asarray(lower, float)
+    upper = np.full(n, np.inf) if upper is None else np.asarray(upper, float)
+    x = np.clip(np.asarray(x0, float), lower, upper)
+    r, J, group = fun(x)
+    w, cost = robust_weights(r, group, loss, f_scale)
+    cost0 = cost
+    rw, Jw = r * w, J * w[:, None]
+    D = np.maximum(np.linalg.norm(Jw, axis=0), 1e-12)
+    lam, history, good_model = 1e-3, [], False
+    status, message = 0, "maximum number of iterations reached"
+    for it in range(1, max_iterations + 1):
+        g = Jw.T @ rw
+        gnorm = float(np.max(np.abs(g / D))) if n else 0.0
+        if n == 0 or gnorm <= gtol * max(1.0, np.sqrt(2 * cost)):
+            status, message = 1, "gradient below gtol"
+            break
+        Q, R = scipy.linalg.qr(Jw, mode="economic")
+        qtr = Q.T @ rw
+        # After a step the model predicted well, try the undamped (Gauss-Newton) step first: on a
+        # well-modelled but ill-conditioned problem the damping would otherwise hold back the weak
+        # directions for many iterations while it decays.
+        undamped = good_model
+        while True:
+            damping = 0.0 if undamped else lam
+            A = np.vstack([R, np.sqrt(damping) * np.diag(D)])
+            b = -np.concatenate([qtr, np.zeros(n)])
+            dx = np.linalg.lstsq(A, b, rcond=None)[0]
+            x_new = np.clip(x + dx, lower, upper)
+            dx = x_new - x
+            try:
+                r_new, J_new, _ = fun(x_new)
+                w_new, cost_new = robust_weights(r_new, group, loss, f_scale)
+            except AssemblyError:
+                # a closed chain that does not assemble at the trial parameters: too long a step
+                r_new = J_new = w_new = None
+                cost_new = np.inf
+            predicted = -(g @ dx) - 0.5 * np.sum((Jw @ dx) ** 2)
+            if undamped:
+                undamped = False
+                if cost_new < cost and predicted > 0 and (cost - cost_new) > 0.25 * predicted:
+                    break
+                continue
+            if cost_new < cost or (cost_new <= cost and predicted <= 0):
+                break
+            if np.linalg.norm(D * dx) <= xtol * (np.linalg.norm(D * x) + xtol):
+                # a rejected step that is already negligible: the minimum is found to working precision
+                return SolveResult(x, cost, r, J, 3, "step below xtol", it, history, w)
+            if predicted <= 1e-14 * cost or cost <= 1e-28 * cost0:
+                # even the model predicts nothing to gain: the fit is exact to rounding (noise-free data)
+                return SolveResult(x, cost, r, J, 4, "cost at the rounding level", it, history, w)
+            lam *= 4.0
+            if lam > 1e16:
+                return SolveResult(x, cost, r, J, -1, "no step reduces the cost (local minimum or bad Jacobian)",
+                                   it, history, w)
+        gain = (cost - cost_new) / predicted if predicted > 0 else 0.0
+        good_model = gain > 0.75
+        lam = lam * max(1.0 / 3.0, 1.0 - (2.0 * gain - 1.0) ** 3) if gain > 0 else lam * 2.0
+        step = float(np.linalg.norm(D * dx))
+        reduction = cost - cost_new
+        x, r, J, cost = x_new, r_new, J_new, cost_new
+        w = w_new
+        rw, Jw = r * w, J * w[:, None]
+        D = np.maximum(D, np.linalg.norm(Jw, axis=0))
+        rec = Iteration(it, cost, step, lam, gnorm)
+        history.append(rec)
+        if callback:
+            callback(rec)
+        if step <= xtol * (np.linalg.norm(D * x) + xtol):
+            status, message = 3, "step below xtol"
+            break
+        if reduction <= ftol * max(cost + reduction, 1e-300):
+            status, message = 2, "cost reduction below ftol"
+            break
+    else:
+        it = max_iterations
+    return SolveResult(x, cost, r, J, status, message, it, history, w)

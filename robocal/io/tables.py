@@ -1,0 +1,126 @@
+"""CSV tables of joint readings and measurements, checked cell by cell.
+
+Every error names the file, the row (the line number in the file, header = line 1) and the column.
+Units: lengths in the file may be metres or millimetres, angles radians or degrees (declared in the
+config); values are converted to SI on reading, and metre columns holding millimetre-sized values are
+refused rather than silently misread.
+"""
+from __future__ import annotations
+
+import csv
+import os
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from robocal.errors import InputError
+
+LENGTH_UNITS = {"m": 1.0, "mm": 1e-3}
+ANGLE_UNITS = {"rad": 1.0, "deg": np.pi / 180.0}
+#: a metre column with values beyond this (m) almost certainly holds millimetres
+MAX_PLAUSIBLE_METRES = 50.0
+#: a radian column with values beyond this (rad) almost certainly holds degrees
+MAX_PLAUSIBLE_RADIANS = 4 * np.pi
+
+
+@dataclass
+class Table:
+    path: Path
+    header: list[str]
+    cells: list[list[str]]
+
+    @property
+    def n_rows(self) -> int:
+        return len(self.cells)
+
+    def line(self, i: int) -> int:
+        """File line number of data row i (0-based)."""
+        return i + 2
+
+    def has(self, name: str) -> bool:
+        return name in self.header
+
+    def column(self, name: str, kind: str = "", unit: str | None = None, rows: np.ndarray | None = None) -> np.ndarray:
+        """Float column in SI units. kind: 'length', 'angle' or '' (dimensionless)."""
+        if name not in self.header:
+            raise InputError(f"missing column (columns present: {', '.join(self.header)})", source=str(self.path),
+                             field=name)
+        j = self.header.index(name)
+        idx = range(self.n_rows) if rows is None else rows
+        out = np.empty(len(idx))
+        for k, i in enumerate(idx):
+            text = self.cells[i][j].strip() if j < len(self.cells[i]) else ""
+            try:
+                v = float(text)
+            except ValueError:
+                raise InputError(f"'{text}' is not a number", source=str(self.path), row=self.line(i),
+                                 field=name) from None
+            if not np.isfinite(v):
+                raise InputError(f"value is {text or 'empty'}", source=str(self.path), row=self.line(i), field=name)
+            out[k] = v
+        return to_si(out, kind, unit, self, name, idx)
+
+    def rows_where(self, column: str, value) -> np.ndarray:
+        if column not in self.header:
+            raise InputError("missing column used in 'where'", source=str(self.path), field=column)
+        j = self.header.index(column)
+        return np.array([i for i, row in enumerate(self.cells) if row[j].strip() == str(value)], dtype=int)
+
+
+# per quantity: its units, the SI one, the largest plausible SI magnitude, and what a larger one looks like
+_QUANTITIES = {"length": (LENGTH_UNITS, "m", MAX_PLAUSIBLE_METRES, "metres", "millimetres", "mm"),
+               "angle": (ANGLE_UNITS, "rad", MAX_PLAUSIBLE_RADIANS, "radians", "degrees", "deg")}
+
+
+def to_si(values: np.ndarray, kind: str, unit: str | None, table: Table, name: str, idx) -> np.ndarray:
+    if kind not in _QUANTITIES:
+        return values
+    units, si, largest, si_word, other_word, other = _QUANTITIES[kind]
+    unit = unit or si
+    if unit not in units:
+        raise InputError(f"unknown {kind} unit '{unit}' ({', '.join(units)})", field=name)
+    if unit == si and len(values) and np.max(np.abs(values)) > largest:
+        k = int(np.argmax(np.abs(values)))
+        raise InputError(f"value {values[k]:g} is not plausible in {si_word}; the column looks like {other_word} "
+                         f"(declare the unit as {other})", source=str(table.path), row=table.line(list(idx)[k]),
+                         field=name)
+    return values * units[unit]
+
+
+def read_csv(path: str | Path) -> Table:
+    path = Path(path)
+    if not path.is_file():
+        raise InputError("data file not found", source=str(path))
+    with path.open(newline="", encoding="utf-8") as f:
+        rows = [r for r in csv.reader(f) if r and any(c.strip() for c in r)]
+    if not rows:
+        raise InputError("the file is empty", source=str(path))
+    header = [h.strip() for h in rows[0]]
+    dup = {h for h in header if header.count(h) > 1}
+    if dup:
+        raise InputError(f"duplicate column names: {', '.join(sorted(dup))}", source=str(path), row=1)
+    cells = rows[1:]
+    for i, r in enumerate(cells):
+        if len(r) != len(header):
+            raise InputError(f"{len(r)} cells where the header has {len(header)}", source=str(path), row=i + 2)
+    return Table(path, header, cells)
+
+
+def write_csv(path: str | Path, columns: dict[str, np.ndarray], precision: int = 17) -> None:
+    """Write columns atomically (a temporary file renamed into place)."""
+    path = Path(path)
+    names = list(columns)
+    data = np.column_stack([np.asarray(columns[n], dtype=float) for n in names])
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w", newline="") as f:
+            w = csv.writer(f)
+            w.writerow(names)
+            for row in data:
+                w.writerow([f"{v:.{precision}g}" for v in row])
+        os.replace(tmp, path)
+    except BaseException:
+        os.unlink(tmp)
+        raise

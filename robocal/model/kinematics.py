@@ -1,0 +1,352 @@
+"""The robot at one parameter vector, and its kinematic state at each sample.
+
+`ModelState` applies a `ParameterSet` to a copy of the nominal model. `SampleState` is one sample's
+joint readings with forward kinematics run; it answers, for any frame, the pose in the measurement
+frame and how that pose moves (a LOCAL right twist: M <- M exp6(xi)) with every free parameter and
+with every read joint. Residuals only ever see this interface, which is what lets one residual serve
+serial and closed-chain robots alike.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+
+from robocal.model.joint_tilt import JointTilts
+from robocal.model.parameters import COMPONENTS, ParameterSet
+from robocal.model.robot import ConfigurationMap
+
+LOCAL = pin.ReferenceFrame.LOCAL
+
+
+def _exp6(v: np.ndarray) -> pin.SE3:
+    return pin.exp6(pin.Motion(np.asarray(v, dtype=float)))
+
+
+class ModelState:
+    """A calibrated copy of the robot's model for the current parameter values.
+
+    joint_names: the joints whose readings each sample provides (in that order).
+    """
+
+    def __init__(self, robot, params: ParameterSet, joint_names: list[str]):
+        self.robot, self.params, self.joint_names = robot, params, list(joint_names)
+        nominal = robot.model
+        self.model = nominal.copy()
+        self.data = self.model.createData()
+        free = params.free_names
+        self.n_free = len(free)
+        col = params.column_map()   # parameter -> [(free column, coefficient)]; ties act on their leaders
+        nj = nominal.njoints - 1
+        # Maps from "twist of a placement" / "joint velocity" to the free-parameter vector.
+        self.P_joint = np.zeros((6 * nj, self.n_free))
+        self.offsets = np.zeros(len(self.joint_names))
+        self.compliance = np.zeros(len(self.joint_names))
+        self.compliance_cols: list[tuple] = []   # (read index, v index, free column, coefficient)
+        self.backlash, self.backlash_cols = np.zeros(len(self.joint_names)), []   # as compliance
+        self.P_offset = np.zeros((self.model.nv, self.n_free))
+        self.P_frame: dict[int, np.ndarray] = {}
+        self.P_base = np.zeros((6, self.n_free))
+        self.base = robot_base = robot.base_placement
+        read_v = {}
+        for k, name in enumerate(self.joint_names):
+            read_v[name] = (k, self.model.joints[robot.joint_id(name)].idx_v)
+        self._read_v_index = np.array([read_v[n][1] for n in self.joint_names], dtype=int)
+        groups: dict[tuple[str, str], None] = {}
+        tilts = []
+        for p in params:
+            if p.kind in ("joint_placement", "frame_placement", "base"):
+                groups[(p.kind, p.target)] = None
+            elif p.kind == "joint_tilt":
+                tilts.append((robot.joint_id(p.target), p.value, col.get(p.name, [])))
+            elif p.kind in ("joint_compliance", "joint_offset", "joint_backlash"):
+                if p.target not in read_v:
+                    raise ValueError(f"{p.kind.split('_')[1]} parameter {p.name}: joint '{p.target}' is not read "
+                                     "by the data")
+                k, iv = read_v[p.target]
+                if p.kind == "joint_offset":
+                    self.offsets[k] = p.value
+                    for c, w in col.get(p.name, []):
+                        self.P_offset[iv, c] += w
+                elif p.kind == "joint_backlash":
+                    self.backlash[k] = p.value
+                    self.backlash_cols += [(k, iv, c, w) for c, w in col.get(p.name, [])]
+                else:
+                    self.compliance[k] = p.value
+                    self.compliance_cols += [(k, iv, c, w) for c, w in col.get(p.name, [])]
+        induced = []   # joints that hang below a calibrated frame: (joint id, moved frame, its block)
+        frame_blocks = []
+        # frames first: a joint below a calibrated frame gets that change before its own placement error;
+        # among frames, parents first, so a calibrated frame below another takes its parent's change
+        for kind, target in sorted(groups, key=lambda g: (g[0] != "frame_placement", self._frame_depth(g))):
+            delta = params.placement_vector(kind, target)
+            Jr = pin.Jexp6(pin.Motion(delta))
+            block = np.zeros((6, self.n_free))
+            for c, comp in enumerate(COMPONENTS):
+                for j, w in col.get(f"{target}.{comp}", []):
+                    block[:, j] += w * Jr[:, c]
+            if kind == "joint_placement":
+                jid = robot.joint_id(target)
+                self.model.jointPlacements[jid] = self.model.jointPlacements[jid] * _exp6(delta)
+                self.P_joint[6 * (jid - 1):6 * jid] += block
+            elif kind == "frame_placement":
+                fid = robot.frame_id(target)
+                moved = self.model.frames[fid].placement * _exp6(delta)
+                moved_with = robot.frames_moved_with(fid)
+                for gid, rel in moved_with:
+                    self.model.frames[gid].placement = moved * rel
+                frame_blocks.append((fid, block, [gid for gid, _ in moved_with]))
+                for jid, rel in robot.joints_moved_with(fid):
+                    self.model.jointPlacements[jid] = moved * rel
+                    induced.append((jid, moved, block))
+            else:
+                self.base = robot_base * _exp6(delta)
+                self.P_base = block
+        for fid, block, moved_with in frame_blocks:   # every placement final: frames below carry the twist
+            final = self.model.frames[fid].placement
+            for gid in moved_with:
+                rel = self.model.frames[gid].placement.inverse() * final
+                self.P_frame[gid] = self.P_frame.get(gid, 0.0) + rel.toActionMatrix() @ block
+        for jid, moved, block in induced:
+            final = self.model.jointPlacements[jid]
+            self.P_joint[6 * (jid - 1):6 * jid] += (final.inverse() * moved).toActionMatrix() @ block
+        self._owner: SampleState | None = None
+        self.has_joint_params, self.has_base_params = bool(self.P_joint.any()), bool(self.P_base.any())
+        self._qmap = ConfigurationMap(robot, self.joint_names)
+        if self.compliance.any() or self.compliance_cols:
+            self._gdata = nominal.createData()
+        # the model the samples run: the calibrated one, or a copy whose tilted joints move per sample
+        self.tilts = JointTilts(robot, self.model, tilts) if tilts else None
+        self.kin_model = self.model.copy() if tilts else self.model
+        self.kin_data = self.kin_model.createData() if tilts else self.data
+        self.loops = robot.loops
+        self.warm_starts: dict = {}      # sample label -> last assembled q (shared across parameter updates)
+        if self.loops is not None:
+            missing = [j for j in self.loops.actuated if j not in self.joint_names]
+            if missing:
+                raise ValueError(f"the data must read the actuated joints; missing: {', '.join(missing)}")
+            self._act_order = [self.joint_names.index(j) for j in self.loops.actuated]
+            self._adata = self.model.createData()
+            self._setup_relations(params, col)
+        elif any(p.kind == "transmission" for p in params):
+            raise ValueError("transmission parameters need a robot with joint relations (screw transmissions or "
+                             "couplings)")
+
+    def _frame_depth(self, group: tuple[str, str]) -> int:
+        """How many frames a calibrated frame hangs below on its joint (0 for other kinds)."""
+        kind, target = group
+        if kind != "frame_placement":
+            return 0
+        frames = self.robot.model.frames
+        k, depth = self.robot.frame_id(target), 0
+        while k != 0 and frames[frames[k].parentFrame].parentJoint == frames[k].parentJoint:
+            k, depth = frames[k].parentFrame, depth + 1
+        return depth
+
+    def _setup_relations(self, params: ParameterSet, col: dict) -> None:
+        """Joint relations (screw transmissions, couplings) of a closed chain, and their parameters.
+
+        A read joint driven through a relation (a screw's stroke) is solved by assembly, so whatever
+        shifts its reading (offset, compliance, backlash) acts through the relation row, not on the tree
+        joint: those columns move from the tree Jacobian to `driven_cols`."""
+        loops = self.loops
+        index = {r.name: k for k, r in enumerate(loops.relations)}
+        relations = list(loops.relations)
+        self.relation_cols = []     # (relation index, component, free column, coefficient)
+        for p in params:
+            if p.kind != "transmission":
+                continue
+            k = index.get(p.target)
+            if k is None:
+                raise ValueError(f"transmission parameter {p.name}: the robot has no joint relation '{p.target}'")
+            component = p.name.rsplit(".", 1)[-1]
+            if component not in relations[k].components:
+                raise ValueError(f"transmission parameter {p.name}: '{component}' is not one of "
+                                 f"{', '.join(relations[k].components)}")
+            relations[k] = relations[k].with_value(component, p.value)
+            self.relation_cols += [(k, component, c, w) for c, w in col.get(p.name, [])]
+        if relations != loops.relations:
+            self.loops = loops.with_relations(relations)
+        self.driven_reads = [self.joint_names.index(j) for j in loops.driven]
+        self.driven_cols = []       # (read index, free column, coefficient, 'offset' | 'compliance' | 'backlash')
+        for k in self.driven_reads:
+            iv = self._read_v_index[k]
+            self.driven_cols += [(k, c, self.P_offset[iv, c], "offset") for c in np.flatnonzero(self.P_offset[iv])]
+            self.P_offset[iv] = 0.0
+        for name in ("compliance", "backlash"):
+            cols = getattr(self, f"{name}_cols")
+            self.driven_cols += [(k, c, w, name) for k, iv, c, w in cols if k in self.driven_reads]
+            cols[:] = [e for e in cols if e[0] not in self.driven_reads]
+
+    def link_readings(self, values: np.ndarray, tau: np.ndarray | None = None) -> np.ndarray:
+        """What the joints are set to: readings + offsets - compliance * gravity torque."""
+        values = values + self.offsets
+        return values if tau is None else values - self.compliance * tau
+
+    def sample(self, values: np.ndarray, q_guess: np.ndarray | None = None, label=None,
+               direction: np.ndarray | None = None) -> "SampleState":
+        """State at one sample's joint readings (in `joint_names` order, SI units).
+
+        direction: each read joint's approach direction (-1, 0, +1) for the backlash parameters; None = 0.
+
+        On a closed-chain robot the passive joints are solved so that every loop closes (warm-started
+        from `q_guess`, else from this sample's last solution); AssemblyError names `label` if impossible.
+        """
+        return SampleState(self, np.asarray(values, dtype=float), label, q_guess, direction)
+
+    def gravity_torque(self, values: np.ndarray) -> np.ndarray:
+        """(n_read,) gravity torque of the nominal model at the readings (the compliance load)."""
+        if not hasattr(self, "_gdata"):
+            return np.zeros(len(self.joint_names))
+        tau = pin.computeGeneralizedGravity(self.robot.model, self._gdata, self._qmap(values))
+        return tau[self._read_v_index]
+
+    def configuration(self, values: np.ndarray, q_guess: np.ndarray | None = None, label=None,
+                      tau: np.ndarray | None = None) -> np.ndarray:
+        values = self.link_readings(values, tau)
+        q = self._qmap(values)
+        if self.loops is None:
+            return q
+        from robocal.model.loops import assemble   # loops imports robot; keep the import graph one-way at load time
+        guess = q_guess if q_guess is not None else self.warm_starts.get(label)
+        if guess is not None:
+            guess = guess.copy()
+        q = assemble(self.robot, self.model, values[self._act_order], q_guess=guess, sample=label, data=self._adata,
+                     loops=self.loops)
+        if label is not None:
+            self.warm_starts[label] = q
+        return q
+
+
+class SampleState:
+    """One sample: readings + forward kinematics, with cached frame quantities."""
+
+    def __init__(self, ms: ModelState, values: np.ndarray, label=None, q_guess=None, direction=None):
+        self.ms, self.values, self.label = ms, values, label
+        self.direction = np.zeros(len(values)) if direction is None else np.asarray(direction, dtype=float)
+        self.tau = ms.gravity_torque(values) if hasattr(ms, "_gdata") else None
+        self.moments = ms.tilts.moments(ms._qmap(values)) if ms.tilts else None
+        # the link sits b on the approach side of the reading; the gravity load stays that of the reading
+        self.q = ms.configuration(values + ms.backlash * self.direction, q_guess, label, self.tau)
+        self._cache: dict[int, tuple] = {}
+        self._implicit = None
+
+    def _activate(self):
+        ms = self.ms
+        if ms._owner is not self:
+            if ms.tilts:
+                ms.tilts.apply(ms.kin_model, self.moments)
+            pin.computeJointJacobians(ms.kin_model, ms.kin_data, self.q)
+            ms._owner = self
+
+    def _frame(self, frame) -> tuple:
+        fid = frame if isinstance(frame, int) else self.ms.robot.frame_id(frame)
+        hit = self._cache.get(fid)
+        if hit is None:
+            self._activate()
+            ms = self.ms
+            oMf = pin.updateFramePlacement(ms.kin_model, ms.kin_data, fid).copy()
+            Jq = pin.getFrameJacobian(ms.kin_model, ms.kin_data, fid, LOCAL).reshape(6, -1).copy()
+            hit = [ms.base * oMf, oMf, Jq, None]
+            self._cache[fid] = hit
+        return hit
+
+    def pose(self, frame) -> pin.SE3:
+        """World (measurement-frame) pose of a frame."""
+        return self._frame(frame)[0]
+
+    def frame_joint_jacobian(self, frame) -> np.ndarray:
+        """(6, n_read) LOCAL twist of the frame per unit of each read joint (loops closed).
+
+        The gravity load's own change with the readings (compliance x d tau_g / dq, a second-order term)
+        is left out."""
+        Jq = self._frame(frame)[2]
+        J = Jq[:, self.ms._read_v_index]
+        if self.ms.loops is not None:
+            if self.ms.driven_reads:          # solved by assembly: the reading acts through its relation
+                J = J.copy()
+                J[:, self.ms.driven_reads] = 0.0
+            J = J + Jq[:, self.ms.loops.solved_v] @ self._passive_sensitivity()[1]
+        return J
+
+    def frame_parameter_jacobian(self, frame) -> np.ndarray:
+        """(6, n_free) LOCAL twist of the frame per unit of each free parameter (loops closed)."""
+        hit = self._frame(frame)
+        if hit[3] is None:
+            J = self._tree_parameter_jacobian(frame, hit)
+            if self.ms.loops is not None:
+                J = J + hit[2][:, self.ms.loops.solved_v] @ self._passive_sensitivity()[0]
+            hit[3] = J
+        return hit[3]
+
+    def _tree_parameter_jacobian(self, frame, hit) -> np.ndarray:
+        """Parameter Jacobian with every joint held at its current value (the spanning tree's view)."""
+        if len(hit) == 4:
+            ms = self.ms
+            fid = frame if isinstance(frame, int) else ms.robot.frame_id(frame)
+            self._activate()
+            J = hit[2] @ ms.P_offset
+            for k, iv, c, w in ms.compliance_cols:          # d q_link / d c = -tau_g
+                J[:, c] -= w * hit[2][:, iv] * self.tau[k]
+            for k, iv, c, w in ms.backlash_cols:            # d q_link / d b = d
+                J[:, c] += w * hit[2][:, iv] * self.direction[k]
+            if ms.has_joint_params or ms.tilts:
+                reg = pin.computeFrameKinematicRegressor(ms.kin_model, ms.kin_data, fid, LOCAL)
+                J += reg @ ms.P_joint
+                if ms.tilts:
+                    J += ms.tilts.jacobian(reg, ms.P_joint, self.moments)
+            if fid in ms.P_frame:
+                J += ms.P_frame[fid]
+            if ms.has_base_params:
+                J += hit[1].inverse().toActionMatrix() @ ms.P_base
+            hit.append(J)
+        return hit[4]
+
+    def _passive_sensitivity(self) -> tuple[np.ndarray, np.ndarray]:
+        """(dq_solved/dtheta, dq_solved/dq_read) from the implicit-function theorem on the closures and
+        joint relations: c(q_s, q_a, theta) = 0  =>  dq_s = -C_s^+ (C_theta dtheta + C_a dq_a)."""
+        if self._implicit is None:
+            ms, L = self.ms, self.ms.loops
+            _, dc_dv = L.constraint_jacobian(ms.model, ms._adata, self.q)
+            hits1 = [self._frame(c.frame1) for c in L.closures]
+            hits2 = [self._frame(c.frame2) for c in L.closures]
+            _, D1, D2 = L.closure_error([h[1] for h in hits1], [h[1] for h in hits2])
+            C_theta = np.vstack([d1 @ self._tree_parameter_jacobian(c.frame1, h1)
+                                 + d2 @ self._tree_parameter_jacobian(c.frame2, h2)
+                                 for c, d1, d2, h1, h2 in zip(L.closures, D1, D2, hits1, hits2)]
+                                + [np.zeros((0, ms.n_free))])
+            C_read = dc_dv[:, ms._read_v_index]
+            if L.relations:
+                C_read[:, ms.driven_reads] = 0.0
+                rel_theta, rel_read, jr = self._relation_sensitivity()
+                dc_dv = np.vstack([dc_dv, jr])
+                C_theta, C_read = np.vstack([C_theta, rel_theta]), np.vstack([C_read, rel_read])
+            rhs = np.hstack([C_theta, C_read])
+            sol = -np.linalg.lstsq(dc_dv[:, L.solved_v], rhs, rcond=None)[0]
+            self._implicit = (sol[:, :ms.n_free], sol[:, ms.n_free:])
+        return self._implicit
+
+    def _relation_sensitivity(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Relation rows: d/dtheta (n_rel, n_free), d/dreadings (n_rel, n_read), d/dv (n_rel, nv)."""
+        ms, L = self.ms, self.ms.loops
+        u_read = ms.link_readings(self.values + ms.backlash * self.direction, self.tau)
+        u = u_read[ms._act_order]
+        _, jr = L.relation_rows(self.q, u)
+        rel_read = jr[:, ms._read_v_index]
+        rel_read[:, ms.driven_reads] = 0.0
+        rel_theta = np.zeros((len(L.relations), ms.n_free))
+        for k, component, c, w in ms.relation_cols:
+            act = L.relation_reading(k)
+            rel_theta[k, c] += w * L.relations[k].derivative(component, L.relation_values(self.q, k),
+                                                             u[act] if act is not None else 0.0)
+        factor = {"offset": lambda k: 1.0, "compliance": lambda k: -self.tau[k],
+                  "backlash": lambda k: self.direction[k]}
+        for k_rel, rel in enumerate(L.relations):
+            act = L.relation_reading(k_rel)
+            if act is None:
+                continue
+            k = ms._act_order[act]
+            rel_read[k_rel, k] = -rel.reading_scale
+            for kr, c, w, what in ms.driven_cols:
+                if kr == k:
+                    rel_theta[k_rel, c] -= rel.reading_scale * w * factor[what](kr)
+        return rel_theta, rel_read, jr

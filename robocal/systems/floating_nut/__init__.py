@@ -1,0 +1,1 @@
+"""robocal.systems.floating_nut."""

@@ -1,0 +1,519 @@
+"""Closed-form inverse kinematics with nut-rotation compensation, its Jacobian, and Newton FK.
+
+Per strut i, at pose p (spec seed-002 §3, signed atan2 form):
+  u_i   = t + R m_i - b_i,   l_i = |u_i|,   s_i = u_i / l_i           effective length (eq. 1)
+  n_b   = a_i x u_i,   n_m = (R c_i) x u_i                          Hooke-plane normals
+  phi_i = atan2((n_b x n_m).s_i, n_b.n_m)                           housing-to-rod roll angle
+  theta_i = wrap(phi_i(p) - phi_i(p0))                              nut rotation (eq. 2')
+  l_a,i = sigma_i L_i theta_i / (2 pi)                              additional length (eq. 4')
+  l_c,i = l_i + l_a,i                                               motor command length (eq. 5)
+With the patent's radial axes (a_i = b_i/|b_i|, c_i = m_i/|m_i|) n_b, n_m are its r x u normals.
+
+Everything is vectorised over poses (leading axis N) and legs (6); a single pose (6,) gives (6,).
+"""
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from robocal.errors import AssemblyError, InputError
+from robocal.systems.floating_nut.geometry import N_LEGS, FloatingNutGeometry, omega_maps, rotation_matrices
+
+log = logging.getLogger(__name__)
+
+TWO_PI = 2.0 * np.pi
+SINGULAR_TOL = 1e-9          # |axis x s| below this: Hooke joint in gimbal lock, roll undefined
+JACOBIAN_MODES = ("full", "uncompensated", "fd")
+
+
+class SingularHookeError(AssemblyError):
+    """A Hooke joint's fixed axis is parallel to its strut: the nut roll is undefined there."""
+
+    def __init__(self, message: str, sample: int | None = None, leg: int | None = None):
+        self.sample, self.leg = sample, leg
+        super().__init__(message)
+
+
+class FKNotConverged(AssemblyError):
+    """Newton forward kinematics did not reach the length tolerance (unreachable or singular)."""
+
+    def __init__(self, message: str, sample: int | None = None):
+        self.sample = sample
+        super().__init__(message)
+
+
+# ---- small vector helpers on (..., 3) arrays -----------------------------------------------
+_NEXT, _PREV = np.array([1, 2, 0]), np.array([2, 0, 1])
+
+
+def _cross(a, b):
+    if a.size + b.size < 2000:     # small arrays: fewest numpy calls wins
+        return a[..., _NEXT] * b[..., _PREV] - a[..., _PREV] * b[..., _NEXT]
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack((a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0), axis=-1)
+
+
+def _dot(a, b):
+    return np.einsum("...i,...i->...", a, b)
+
+
+def _wrap(angle):
+    """Wrap to (-pi, pi]."""
+    return -((np.pi - angle) % TWO_PI - np.pi)
+
+
+def _as_poses(poses) -> tuple[np.ndarray, bool]:
+    try:
+        arr = np.asarray(poses, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"poses must be numbers: {exc}", field="pose") from exc
+    single = arr.ndim == 1
+    arr = np.atleast_2d(arr)
+    if arr.ndim != 2 or arr.shape[1] != 6:
+        raise InputError(f"poses must have shape (6,) or (N, 6) [x y z alpha beta gamma], got "
+                         f"{np.shape(poses)}", field="pose")
+    bad = np.flatnonzero(~np.all(np.isfinite(arr), axis=1))
+    if bad.size:
+        raise InputError(f"pose {bad[0]} has non-finite entries", row=int(bad[0]), field="pose")
+    return arr, single
+
+
+def _as_lengths(lengths) -> tuple[np.ndarray, bool]:
+    arr = np.asarray(lengths, dtype=float)
+    single = arr.ndim == 1
+    arr = np.atleast_2d(arr)
+    if arr.ndim != 2 or arr.shape[1] != N_LEGS:
+        raise InputError(f"lengths must have shape (6,) or (N, 6), got {np.shape(lengths)}", field="lengths")
+    bad = np.flatnonzero(~np.all(np.isfinite(arr), axis=1))
+    if bad.size:
+        raise InputError(f"length set {bad[0]} has non-finite entries", row=int(bad[0]), field="lengths")
+    return arr, single
+
+
+@dataclass
+class _PoseTerms:
+    """Per-pose, per-leg intermediate values (arrays (N, 6) or (N, 6, 3))."""
+    R: np.ndarray        # (N, 3, 3)
+    rm: np.ndarray       # R m_i, O_m -> M_i in base components
+    u: np.ndarray        # B_i -> M_i
+    length: np.ndarray   # l_i
+    s: np.ndarray        # unit strut axis
+    c: np.ndarray        # R c_i, platform Hooke axis in base components
+    nb: np.ndarray       # a_i x u_i
+    nm: np.ndarray       # c x u_i
+    x: np.ndarray        # nb . nm
+    y: np.ndarray        # (nb x nm) . s
+    phi: np.ndarray      # atan2(y, x)
+
+
+@dataclass
+class IKDetails:
+    """Everything the compensated IK computes, per pose and leg (N, 6), SI units."""
+    lengths: np.ndarray        # effective lengths l, m
+    theta: np.ndarray          # nut rotation from home, rad
+    additional: np.ndarray     # l_a, m
+    command: np.ndarray        # l_c = l + l_a (or l when uncompensated), m
+    phi: np.ndarray            # dihedral angle, rad
+    hooke: np.ndarray          # (N, 6, 4) Hooke angles q1, q2 (base), q5, q6 (platform), rad
+
+
+@dataclass
+class FKResult:
+    """Forward-kinematics solution.
+
+    pose        (6,) or (N, 6) platform pose [m, rad]
+    iterations  int or (N,) Newton updates taken
+    residual    float or (N,) final |l_c* - l_c(pose)|_inf, m
+    history     max residual over the batch before each update, m
+    """
+    pose: np.ndarray
+    iterations: np.ndarray | int
+    residual: np.ndarray | float
+    history: list[float]
+
+
+class FloatingNutKinematics:
+    """Closed-form kinematics of one `FloatingNutGeometry` (home values cached at construction).
+
+    use_numba: single-pose FK in the numba kernel (floating_nut_fk_compiled.py). None: when numba
+    imports and ROBOCAL_NO_NUMBA is not set to 1; False: numpy only; True: numba required."""
+
+    def __init__(self, geometry: FloatingNutGeometry, use_numba: bool | None = None):
+        self.geometry = geometry
+        g = geometry
+        self._b, self._m, self._a, self._c = g.b, g.m, g.base_axes, g.plat_axes
+        self._gain = g.sigma * g.lead / TWO_PI          # l_a = gain * theta
+        self._phi0 = np.zeros(N_LEGS)
+        home = self._terms(g.p0[None], what="home pose p0")
+        self._phi0 = home.phi[0]
+        self._l0 = home.length[0]
+        self._s0 = home.s[0]
+        self._s0_plat = home.s[0] @ home.R[0]             # R0^T s0, home strut axis in {O_m}
+        self._single = None                               # single-pose FK tables, see fk
+        self._use_numba = use_numba
+
+    # ---- home values ------------------------------------------------------------------
+    @property
+    def home_lengths(self) -> np.ndarray:
+        """l_i(p0) = l_c,i(p0), (6,) m."""
+        return self._l0.copy()
+
+    @property
+    def home_dihedral(self) -> np.ndarray:
+        """phi_i(p0), (6,) rad."""
+        return self._phi0.copy()
+
+    # ---- core terms -------------------------------------------------------------------
+    def _terms(self, P: np.ndarray, what: str = "pose") -> _PoseTerms:
+        R = rotation_matrices(P[:, 3:], self.geometry.euler)
+        Rt = R.transpose(0, 2, 1)
+        rm = self._m @ Rt                                  # (N, 6, 3)
+        u = P[:, None, :3] + rm - self._b
+        length = np.sqrt(_dot(u, u))
+        s = u / length[..., None]
+        c = self._c @ Rt
+        nb, nm = _cross(self._a, u), _cross(c, u)
+        self._check_singular(nb, nm, length, what)
+        x = _dot(nb, nm)
+        y = _dot(_cross(nb, nm), s)
+        return _PoseTerms(R, rm, u, length, s, c, nb, nm, x, y, np.arctan2(y, x))
+
+    @staticmethod
+    def _check_singular(nb, nm, length, what):
+        # |a x s| and |c x s|: both axes are unit, so these are sines of the axis-strut angles
+        l2 = length * length
+        sin_b = _dot(nb, nb) / l2        # squared sines
+        sin_m = _dot(nm, nm) / l2
+        tol = SINGULAR_TOL ** 2
+        bad = (sin_b < tol) | (sin_m < tol) | ~np.isfinite(sin_b + sin_m)
+        if np.any(bad):
+            n, leg = (int(v) for v in np.argwhere(bad)[0])
+            side = "base" if not sin_b[n, leg] >= tol else "platform"
+            raise SingularHookeError(
+                f"{what} {n}: the {side} Hooke axis of leg {leg + 1} is parallel to the strut "
+                f"(|axis x s| < {SINGULAR_TOL:g}); the nut rotation is undefined there", sample=n, leg=leg)
+
+    # ---- inverse kinematics -------------------------------------------------------------
+    def effective_lengths(self, poses) -> np.ndarray:
+        """Distance between Hooke centres l_i(p): (N, 6) or (6,), m (eq. 1)."""
+        P, single = _as_poses(poses)
+        R = rotation_matrices(P[:, 3:], self.geometry.euler)
+        u = P[:, None, :3] + self._m @ R.transpose(0, 2, 1) - self._b
+        out = np.sqrt(_dot(u, u))
+        return out[0] if single else out
+
+    def dihedral(self, poses) -> np.ndarray:
+        """Signed angle phi_i from plane (a_i, u_i) to plane (R c_i, u_i) about s_i, rad."""
+        P, single = _as_poses(poses)
+        phi = self._terms(P).phi
+        return phi[0] if single else phi
+
+    def nut_rotation(self, poses, patent_unsigned: bool = False) -> np.ndarray:
+        """Nut rotation theta_i relative to the screw since p0, rad: (N, 6) or (6,).
+
+        patent_unsigned=True gives the patent's eq. (2), arccos(p) - arccos(p0), without its lost
+        direction rule; it has the wrong sign on legs whose home dihedral is negative (comparison only).
+        """
+        P, single = _as_poses(poses)
+        t = self._terms(P)
+        if patent_unsigned:
+            x0 = np.cos(self._phi0)
+            cos_p = t.x / np.sqrt(_dot(t.nb, t.nb) * _dot(t.nm, t.nm))
+            theta = np.arccos(np.clip(cos_p, -1, 1)) - np.arccos(np.clip(x0, -1, 1))
+        else:
+            theta = _wrap(t.phi - self._phi0)
+        return theta[0] if single else theta
+
+    def additional_lengths(self, poses) -> np.ndarray:
+        """l_a,i = sigma_i L_i theta_i / (2 pi): (N, 6) or (6,), m (eq. 4')."""
+        return self._gain * self.nut_rotation(poses)
+
+    def ik(self, poses, compensate: bool = True, return_details: bool = False):
+        """Motor command lengths l_c = l + l_a (eq. 5), (N, 6) or (6,) m.
+
+        compensate=False gives the classic 6-UPS lengths l. With return_details an `IKDetails`
+        is returned as well (Hooke angles included).
+        """
+        P, single = _as_poses(poses)
+        t = self._terms(P)
+        theta = _wrap(t.phi - self._phi0)
+        additional = self._gain * theta
+        command = t.length + additional if compensate else t.length.copy()
+        out = command[0] if single else command
+        if not return_details:
+            return out
+        details = IKDetails(t.length, theta, additional, command, t.phi, self._hooke_from_terms(t))
+        if single:
+            details = IKDetails(*(getattr(details, k)[0] for k in details.__dataclass_fields__))
+        return out, details
+
+    # ---- Jacobian ---------------------------------------------------------------------
+    def _gradients(self, t: _PoseTerms):
+        """Gradients of l_i and phi_i with respect to a platform twist (v, omega) in {O_b}.
+
+        Returns (lv, lw, fv, fw), each (N, 6, 3): dl = lv.v + lw.omega, dphi = fv.v + fw.omega.
+        Derivation: du = v + omega x Rm, d n_b = a x du, d n_m = (omega x c) x u + c x du,
+        dphi = (x dy - y dx)/(x^2 + y^2) with y = (n_b x n_m).s; n_b x n_m is parallel to s, so
+        ds drops out and dphi = d n_b.G + d n_m.H with G, H below; then move du, omega out.
+        """
+        r2 = (t.x * t.x + t.y * t.y)[..., None]
+        x, y = t.x[..., None], t.y[..., None]
+        G = (x * _cross(t.nm, t.s) - y * t.nm) / r2
+        H = (x * _cross(t.s, t.nb) - y * t.nb) / r2
+        W = _cross(G, self._a) + _cross(H, t.c)              # coefficient of du
+        fw = _cross(t.rm, W) + _cross(t.c, _cross(t.u, H))
+        return t.s, _cross(t.rm, t.s), W, fw
+
+    def _pose_rows(self, gv, gw, P):
+        """Rows d(.)/dp (N, 6, 6) from twist gradients: omega = T(angles) @ angle rates."""
+        T = omega_maps(P[:, 3:], self.geometry.euler)
+        return np.concatenate([gv, gw @ T], axis=2)
+
+    def _rates(self, t: _PoseTerms, P):
+        """dl/dp and dphi/dp, each (N, 6 legs, 6 pose coordinates)."""
+        lv, lw, fv, fw = self._gradients(t)
+        return self._pose_rows(lv, lw, P), self._pose_rows(fv, fw, P)
+
+    def jacobian(self, poses, compensate: bool = True, mode: str = "analytic") -> np.ndarray:
+        """J_c = d l_c / d p, (N, 6, 6) or (6, 6): rows legs, columns [x y z alpha beta gamma].
+
+        mode "analytic" or "fd" (central differences, step 1e-6, for checks).
+        """
+        P, single = _as_poses(poses)
+        if mode == "fd":
+            J = self._fd_jacobian(P, compensate)
+        elif mode == "analytic":
+            J = self._newton_matrix(self._terms(P), P, compensate, "full")
+        else:
+            raise InputError(f"jacobian mode must be 'analytic' or 'fd', got '{mode}'", field="mode")
+        return J[0] if single else J
+
+    def length_and_roll_jacobians(self, poses) -> tuple[np.ndarray, np.ndarray]:
+        """J_l = dl/dp and J_theta = dtheta/dp separately, each (N, 6, 6) or (6, 6)."""
+        P, single = _as_poses(poses)
+        dl, dphi = self._rates(self._terms(P), P)
+        return (dl[0], dphi[0]) if single else (dl, dphi)
+
+    def _fd_jacobian(self, P, compensate, h=1e-6):
+        J = np.empty((P.shape[0], N_LEGS, 6))
+        for k in range(6):
+            dp = np.zeros(6)
+            dp[k] = h
+            J[:, :, k] = (self.ik(P + dp, compensate) - self.ik(P - dp, compensate)) / (2 * h)
+        return J
+
+    # ---- derivatives for calibration --------------------------------------------------------
+    def lead_derivative(self, poses) -> np.ndarray:
+        """d l_c,i / d L_i (leg i's own lead; other legs' leads do not enter): (N, 6) or (6,), m/m."""
+        return self.geometry.sigma / TWO_PI * self.nut_rotation(poses)
+
+    def axis_derivatives(self, poses) -> tuple[np.ndarray, np.ndarray]:
+        """Derivatives of l_c,i with respect to small rotations of leg i's Hooke axes.
+
+        The base axis moves as a_i -> a_i + delta x a_i with delta (3,) in {O_b}; the platform axis
+        as c_i -> c_i + delta x c_i with delta in {O_m}. The home dihedral phi_i(p0) moves too and
+        is included. Components along the axis itself are zero; project on `tangent_basis` for the
+        two angles of each axis. Returns (base, plat), each (N, 6, 3) or (6, 3), m/rad.
+        """
+        P, single = _as_poses(poses)
+        g = self.geometry
+        base, plat = self._dphi_daxes(P)
+        base0, plat0 = self._dphi_daxes(g.p0[None])
+        scale = self._gain[:, None]
+        base, plat = scale * (base - base0), scale * (plat - plat0)
+        return (base[0], plat[0]) if single else (base, plat)
+
+    def _dphi_daxes(self, P):
+        t = self._terms(P)
+        eye = np.eye(3)
+        da = _cross(eye[:, None], self._a)                    # (3, 6, 3): d a_i for delta = e_j
+        dc_plat = _cross(eye[:, None], self._c)               # (3, 6, 3), in {O_m}
+        dc = dc_plat[None] @ t.R.transpose(0, 2, 1)[:, None]  # (N, 3, 6, 3) in {O_b}
+        u = t.u[:, None]
+        dnb = _cross(da[None], u)
+        dnm = _cross(dc, u)
+        A = _cross(t.nm, t.s)[:, None]
+        B = _cross(t.s, t.nb)[:, None]
+        x, y = t.x[:, None], t.y[:, None]
+        r2 = x * x + y * y
+        d_base = (x * _dot(dnb, A) - y * _dot(dnb, t.nm[:, None])) / r2
+        d_plat = (x * _dot(dnm, B) - y * _dot(t.nb[:, None], dnm)) / r2
+        return d_base.transpose(0, 2, 1), d_plat.transpose(0, 2, 1)
+
+    # ---- Hooke joint angles -----------------------------------------------------------------
+    def hooke_angles(self, poses) -> np.ndarray:
+        """Hooke angles (N, 6, 4) or (6, 4), rad: q1 about a_i, q2 about the housing axis (base
+        joint), q5 about the rod axis, q6 about c_i (platform joint, measured platform -> rod)."""
+        P, single = _as_poses(poses)
+        out = self._hooke_from_terms(self._terms(P))
+        return out[0] if single else out
+
+    def _hooke_from_terms(self, t: _PoseTerms) -> np.ndarray:
+        s_plat = np.einsum("nji,nlj->nli", t.R, t.s)        # R^T s
+        q1, q2 = _universal_angles(self._a, self._s0, t.s)
+        q6, q5 = _universal_angles(self._c, self._s0_plat, s_plat)
+        return np.stack([q1, q2, q5, q6], axis=-1)
+
+    # ---- forward kinematics -------------------------------------------------------------------
+    def fk(self, lengths, p_init=None, compensate: bool = True, jacobian: str = "full",
+           tol: float = 1e-12, max_iter: int = 50, warn_condition: float | None = 1e8) -> FKResult:
+        """Platform pose from motor command lengths by Newton on l_c(p) = lengths.
+
+        lengths (6,) or (N, 6) m; p_init (6,) or (N, 6) start pose (default p0; pass the previous
+        solution when tracking). compensate=False solves the classic 6-UPS model l(p) = lengths.
+        jacobian: "full" (exact J_c), "uncompensated" (J_l only: quasi-Newton) or "fd".
+        Stops when |residual|_inf < tol (m), then takes one chord step with the last matrix (no new
+        kinematics), so the pose error is at round-off rather than |J^-1| tol. `iterations` counts
+        Newton updates with a fresh matrix. Raises FKNotConverged (naming the sample) otherwise;
+        logs a warning when cond(J) near the solution exceeds warn_condition.
+        One pose with an analytic matrix goes to a lean solver with the same iterates (floating_nut_fk.py,
+        or its numba kernel, see the class docstring).
+        """
+        if jacobian not in JACOBIAN_MODES:
+            raise InputError(f"jacobian must be one of {JACOBIAN_MODES}, got '{jacobian}'", field="jacobian")
+        # every solver counts iterations up to max_iter: no limit would let a diverging Newton run forever
+        if isinstance(max_iter, bool) or not isinstance(max_iter, (int, np.integer)) or max_iter < 0:
+            raise InputError(f"max_iter must be an integer >= 0, got {max_iter!r}", field="max_iter")
+        if not tol > 0.0:
+            raise InputError(f"tol must be a positive number of metres, got {tol!r}", field="tol")
+        lean = None if jacobian == "fd" else _single_pose_inputs(lengths, p_init)
+        if lean is not None:
+            return self._single_pose_solver().solve(*lean, compensate, jacobian, tol, max_iter, warn_condition)
+        L, single = _as_lengths(lengths)
+        P = np.array(np.broadcast_to(self.geometry.p0 if p_init is None else p_init, L.shape), dtype=float)
+        _as_poses(P)
+        n = L.shape[0]
+        iterations = np.zeros(n, dtype=int)
+        residual = np.full(n, np.inf)
+        history: list[float] = []
+        active = np.arange(n)
+        J = None
+        J_final = np.full((n, 6, 6), np.nan)       # last Newton matrix of each sample
+        for k in range(max_iter + 1):
+            Pa = P[active]
+            t = self._terms(Pa, what="FK iterate of sample")
+            model = t.length
+            if compensate:
+                model = model + self._gain * _wrap(t.phi - self._phi0)
+            err = L[active] - model
+            res = np.max(np.abs(err), axis=1)
+            residual[active] = res
+            history.append(float(res.max()))
+            todo = res >= tol
+            if J is not None and not np.all(todo):
+                # Converged: one chord step with the previous matrix (no new kinematics) takes the
+                # pose error from about |J^-1| tol down to round-off.
+                done = ~todo
+                P[active[done]] += np.linalg.solve(J[done], err[done][..., None])[..., 0]
+                J_final[active[done]] = J[done]
+            if not np.any(todo):
+                break
+            if k == max_iter:
+                bad = int(active[np.argmax(todo)])
+                raise FKNotConverged(f"FK of sample {bad} did not converge in {max_iter} iterations "
+                                     f"(residual {residual[bad]:.3g} m, tolerance {tol:g} m)", sample=bad)
+            if not np.all(todo):
+                active, Pa, t, err = active[todo], Pa[todo], _subset(t, todo), err[todo]
+            J = self._newton_matrix(t, Pa, compensate, jacobian)
+            try:
+                step = np.linalg.solve(J, err[..., None])[..., 0]
+            except np.linalg.LinAlgError as exc:
+                raise FKNotConverged(f"FK hit a singular Jacobian at iteration {k} (samples "
+                                     f"{active[:5].tolist()}...)", sample=int(active[0])) from exc
+            if not np.all(np.isfinite(step)):
+                bad = int(active[np.argmax(~np.all(np.isfinite(step), axis=1))])
+                raise FKNotConverged(f"FK of sample {bad}: singular Jacobian", sample=bad)
+            P[active] += step
+            iterations[active] += 1
+        if warn_condition is not None:
+            evaluated = np.flatnonzero(iterations > 0)
+            if evaluated.size:
+                cond = np.linalg.cond(J_final[evaluated])
+                if np.any(cond > warn_condition):
+                    log.warning("FK: Jacobian condition number %.3g near the solution of sample %d "
+                                "(close to a singularity)", cond.max(), int(evaluated[np.argmax(cond)]))
+        if single:
+            return FKResult(P[0], int(iterations[0]), float(residual[0]), history)
+        return FKResult(P, iterations, residual, history)
+
+    def _single_pose_solver(self):
+        """The lean single-pose FK of this geometry (numba or numpy), built on first use."""
+        if self._single is None:
+            from robocal.systems.floating_nut.fk_compiled import single_pose_solver   # imports this module: deferred
+            self._single = single_pose_solver(self, self._use_numba)
+        return self._single
+
+    def _newton_matrix(self, t, P, compensate, jacobian):
+        if jacobian == "fd":
+            return self._fd_jacobian(P, compensate)
+        lv, lw, fv, fw = self._gradients(t)
+        if compensate and jacobian == "full":
+            k = self._gain[:, None]
+            return self._pose_rows(lv + k * fv, lw + k * fw, P)
+        return self._pose_rows(lv, lw, P)
+
+    # ---- motor maps ---------------------------------------------------------------------------
+    def motor_to_lengths(self, psi, psi0=0.0) -> np.ndarray:
+        """Command lengths from motor angles (rad): l_c = l_c(p0) + L (psi - psi0) / (2 pi gear).
+
+        The motor angle is counted positive in the direction that lengthens the command.
+        """
+        psi = np.asarray(psi, dtype=float)
+        g = self.geometry
+        return self._l0 + g.lead * (psi - psi0) / (TWO_PI * g.gear_ratio)
+
+    def lengths_to_motor(self, lengths, psi0=0.0) -> np.ndarray:
+        """Motor angles (rad) that command the given lengths (inverse of `motor_to_lengths`)."""
+        g = self.geometry
+        if np.any(g.lead == 0):
+            raise InputError("a zero lead cannot be converted to motor angles", field="lead")
+        return psi0 + (np.asarray(lengths, dtype=float) - self._l0) * TWO_PI * g.gear_ratio / g.lead
+
+
+def _single_pose_inputs(lengths, p_init):
+    """(lengths (6,), p_init (6,) or None) as floats when both are one finite pose, else None (the
+    batch path then handles them, and reports bad input)."""
+    L = np.asarray(lengths, dtype=float)
+    if L.shape != (N_LEGS,) or not math.isfinite(sum(L.tolist())):
+        return None
+    if p_init is None:
+        return L, None
+    p = np.asarray(p_init, dtype=float)
+    if p.shape != (6,) or not math.isfinite(sum(p.tolist())):
+        return None
+    return L, p.tolist()
+
+
+def _subset(t: _PoseTerms, mask) -> _PoseTerms:
+    return _PoseTerms(*(getattr(t, k)[mask] for k in t.__dataclass_fields__))
+
+
+def _unit(v):
+    return v / np.sqrt(_dot(v, v))[..., None]
+
+
+def _signed_angle(u, v, k):
+    return np.arctan2(_dot(_cross(u, v), k), _dot(u, v))
+
+
+def _rodrigues(k, q, v):
+    cq, sq = np.cos(q)[..., None], np.sin(q)[..., None]
+    return v * cq + _cross(k, v) * sq + k * _dot(k, v)[..., None] * (1 - cq)
+
+
+def _universal_angles(axis, s_home, s):
+    """Angles of a Hooke joint with fixed axis `axis` (6, 3) carrying a strut from s_home to s.
+
+    First angle about the fixed axis, second about the moving cross axis (spec seed-002 §3).
+    """
+    a = np.broadcast_to(axis, s.shape)
+    cross_home = _unit(_cross(axis, s_home))
+    cross_now = _unit(_cross(a, s))
+    q_first = _signed_angle(np.broadcast_to(cross_home, s.shape), cross_now, a)
+    s_turned = _rodrigues(a, q_first, np.broadcast_to(s_home, s.shape))
+    q_second = _signed_angle(s_turned, s, cross_now)
+    return q_first, q_second

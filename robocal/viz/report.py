@@ -1,0 +1,191 @@
+"""The HTML report of a calibration: one self-contained file.
+
+Summary table, residuals per block, parameter table, the identifiability statement in words, the plots
+(robocal.viz.plots, embedded as base64 PNG) and the 3D scene (robocal.viz.meshcat_check, embedded as an iframe's srcdoc).
+Inputs are result.json and scene.json of an output folder (or the same data in memory).
+Lengths are shown in mm and angles in mrad; the tables say so.
+"""
+from __future__ import annotations
+
+import base64
+import html
+import io
+import json
+import logging
+from pathlib import Path
+
+import numpy as np
+
+from robocal.viz import plots
+from robocal.errors import InputError
+from robocal.viz.scene import read_scene
+
+log = logging.getLogger(__name__)
+SHOWN = {"m": (1e3, "mm"), "rad": (1e3, "mrad")}
+
+
+def _png(fn, *args, **kwargs) -> str:
+    buf = io.BytesIO()
+    fn(*args, buf, **kwargs)
+    return base64.b64encode(buf.getvalue()).decode("ascii")
+
+
+def _table(header: list[str], rows: list[list], cls: str) -> str:
+    head = "".join(f"<th>{html.escape(str(h))}</th>" for h in header)
+    body = "".join("<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in r) + "</tr>" for r in rows)
+    return f'<table class="{cls}"><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>'
+
+
+def _fmt(v, spec: str = ".4g") -> str:
+    return "n/a" if v is None or (isinstance(v, float) and not np.isfinite(v)) else format(v, spec)
+
+
+def _length_rows(block: dict, state: str) -> np.ndarray:
+    """(terms, k) the block's length rows of each term, in m."""
+    r = np.array(block[f"residual_{state}"], float).reshape(len(block["terms"]), -1)
+    return r[:, [u == "length" for u in block["row_units"]]]
+
+
+# ---- plots from the output folder's data --------------------------------------------------------
+def report_plots(result: dict, scene: dict | None) -> list[tuple[str, str]]:
+    """[(caption, base64 PNG)] for the report."""
+    out = []
+    if scene:
+        for b in scene["blocks"]:
+            r0, r1 = _length_rows(b, "before"), _length_rows(b, "after")
+            if r0.shape[1]:
+                out.append((f"Residual per sample of block '{b['name']}' ({b['type']}): length rows, mm",
+                            _png(plots.residuals_per_sample, 1e3 * np.linalg.norm(r0, axis=1),
+                                 1e3 * np.linalg.norm(r1, axis=1), title=f"{b['name']}: residual per sample")))
+        errs = {s: [np.array(b[f"predicted_{s}"]).reshape(-1, 3) - np.array(b[f"measured_{s}"]).reshape(-1, 3)
+                    for b in scene["blocks"] if b[f"measured_{s}"]] for s in ("before", "after")}
+        if errs["after"]:
+            out.append(("Per-axis error of every drawn point (predicted - measured), measurement frame, mm",
+                        _png(plots.error_histograms, 1e3 * np.vstack(errs["before"]), 1e3 * np.vstack(errs["after"]))))
+    est = [p for p in result.get("parameters", []) if p.get("vary")]
+    if est:
+        out.append(("Estimated parameters with +-1 standard error (mm, mrad)",
+                    _png(plots.parameter_estimates, [p["name"] for p in est], [p["value"] for p in est],
+                         [p.get("stderr") for p in est], units=[p.get("unit", "") for p in est])))
+    ident = (scene or {}).get("identification")
+    if ident and ident.get("singular_values"):
+        out.append((f"Singular values of the column-scaled identification Jacobian at the start point; the "
+                    f"base-parameter selection kept {ident['rank']} of {ident['requested']} parameters",
+                    _png(plots.singular_values, ident["singular_values"], min(ident["rank"], len(ident["singular_values"])))))
+    return out
+
+
+# ---- HTML ---------------------------------------------------------------------------------------
+def iso9283_section(iso: dict) -> list[str]:
+    """ISO 9283 pose (and distance) characteristics of the nominal and the calibrated model, in mm / mrad."""
+    rows, dist = [], []
+    for model in ("nominal", "calibrated"):
+        for p in iso.get(model, {}).get("poses", []):
+            rows.append([model, p["pose"], p["visits"], _fmt(1e3 * p["AP"]),
+                         ", ".join(_fmt(1e3 * p[f"AP_{k}"], "+.3g") for k in "xyz"),
+                         ", ".join(_fmt(1e3 * p[f"AP_{k}"], "+.3g") for k in "abc"),
+                         _fmt(1e3 * p["RP"]), ", ".join(_fmt(1e3 * p[f"RP_{k}"], ".3g") for k in "abc")])
+        for d in iso.get(model, {}).get("distances", []):
+            dist.append([model, " - ".join(d["poses"]), d["cycles"], _fmt(1e3 * d["AD"]), _fmt(1e3 * d["RD"])])
+    parts = ["<h2>ISO 9283 pose characteristics (mm, mrad)</h2>",
+             f"<p>Frame {html.escape(str(iso.get('frame')))}; the calibrated figures are what the same robot "
+             "reaches when its controller uses the calibrated model (first order at the commanded joints).</p>",
+             _table(["model", "pose", "visits", "AP", "AP x, y, z", "AP a, b, c", "RP", "RP a, b, c"], rows, "iso9283")]
+    if dist:
+        parts.append(_table(["model", "poses", "cycles", "AD", "RD"], dist, "iso9283-distance"))
+    return parts
+
+
+def report_html(result: dict, scene: dict | None = None, meshes: bool = True, title: str = "robocal calibration report",
+                iso9283: dict | None = None) -> str:
+    """The report page. `result` is result.json's content, `scene` scene.json's (None: no plots of points),
+    `iso9283` iso9283.json's (None: no ISO section)."""
+    ident = result.get("identifiability", {})
+    summary = [["status", result.get("status")], ["solver message", result.get("message")],
+               ["iterations", result.get("iterations")], ["residual rows", result.get("rows")],
+               ["degrees of freedom", result.get("degrees_of_freedom")],
+               ["parameters determined", f"{ident.get('rank')} of {ident.get('requested')} requested"],
+               ["condition number", _fmt(result.get("condition_number"), ".3g")],
+               ["residual / stated sigma", _fmt(result.get("sigma_ratio"), ".3f")]]
+    if scene:
+        summary.insert(0, ["robot", f"{scene['robot']['name']} ({len(scene['values'])} samples)"])
+    blocks = []
+    for b0, b1 in zip(result.get("residuals_before", []), result.get("residuals_after", [])):
+        fmt = lambda d: ", ".join(f"{v:.4g} {k}" for k, v in d.items())
+        blocks.append([b0["name"], b0["type"], b0["rows"], fmt(b0["rms"]), fmt(b1["rms"]), fmt(b0["max"]), fmt(b1["max"])])
+    params = []
+    for p in result.get("parameters", []):
+        k, unit = SHOWN.get(p.get("unit", ""), (1.0, p.get("unit", "")))
+        se = p.get("stderr")
+        state = "estimated" if p.get("vary") else ("not identifiable: fixed" if p.get("identifiable") is False else "fixed")
+        params.append([p["name"], unit, _fmt(k * p["value"], "+.5g"),
+                       _fmt(k * se, ".3g") if p.get("vary") and se is not None else "", state])
+    parts = [f"<h1>{html.escape(title)}</h1>",
+             "<h2>Summary</h2>", _table(["quantity", "value"], summary, "summary"),
+             "<h2>Residuals (mm, mrad)</h2>",
+             _table(["block", "type", "rows", "RMS before", "RMS after", "max before", "max after"], blocks, "residuals"),
+             "<h2>Identifiability</h2>", "<ul class=\"identifiability\">"
+             + "".join(f"<li>{html.escape(s)}</li>" for s in ident.get("statements", [])) + "</ul>",
+             "<h2>Parameters (lengths in mm, angles in mrad)</h2>",
+             _table(["parameter", "unit", "value", "standard error", "status"], params, "parameters")]
+    if iso9283:
+        parts += iso9283_section(iso9283)
+    figures = report_plots(result, scene)
+    if figures:
+        parts.append("<h2>Plots</h2>")
+        parts += [f'<figure><img alt="{html.escape(c)}" src="data:image/png;base64,{b}"><figcaption>'
+                  f"{html.escape(c)}</figcaption></figure>" for c, b in figures]
+    if scene:
+        from robocal.viz.meshcat_check import SceneView
+        page = SceneView(scene, meshes=meshes).static_html()
+        parts += ["<h2>3D scene</h2><p>The robot after calibration (orange skeleton: before) at each sample; "
+                  "measured points, predictions and residual arrows scaled for visibility. Use the buttons to step "
+                  "through the samples and the meshcat menu to show or hide parts.</p>",
+                  f'<iframe class="scene" title="3D scene" srcdoc="{html.escape(page, quote=True)}"></iframe>']
+    else:
+        parts.append("<p>No scene.json in this result: no 3D scene and no per-sample plots.</p>")
+    style = ("body{font-family:sans-serif;max-width:1100px;margin:1em auto;padding:0 1em}"
+             "table{border-collapse:collapse;margin:.5em 0}td,th{border:1px solid #ccc;padding:2px 8px;"
+             "font-size:13px;text-align:left}th{background:#eef}img{max-width:100%}"
+             "iframe.scene{width:100%;height:640px;border:1px solid #ccc}figcaption{font-size:12px;color:#444}")
+    return (f"<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>{html.escape(title)}</title>"
+            f"<style>{style}</style></head><body>{''.join(parts)}</body></html>")
+
+
+def report_bytes(result, scene=None, meshes: bool = True, iso9283: dict | None = None) -> bytes:
+    """report.html content for `write_results(..., extra=...)`.
+
+    result: a CalibrationResult or its dict; scene: scene.json bytes or dict (robocal.viz.scene) or None.
+    """
+    if hasattr(result, "to_json"):
+        result = json.loads(result.to_json())
+    if isinstance(scene, (bytes, bytearray)):
+        scene = json.loads(scene)
+    return report_html(result, scene, meshes=meshes, iso9283=iso9283).encode("utf-8")
+
+
+def read_result(folder: str | Path) -> dict:
+    path = Path(folder) / "result.json"
+    if not path.is_file():
+        raise InputError("no result.json: not a robocal output folder", source=str(path))
+    try:
+        return json.loads(path.read_text(encoding="utf-8"))
+    except json.JSONDecodeError as exc:
+        raise InputError(f"not valid JSON: {exc.msg}", source=str(path), row=exc.lineno) from exc
+
+
+def write_report(folder: str | Path, out: str | Path | None = None, meshes: bool = True) -> Path:
+    """Write the report of an output folder (default: <folder>/report.html); returns its path.
+
+    Without scene.json the report still has the tables, the parameter plot and the statements.
+    """
+    folder = Path(folder)
+    result = read_result(folder)
+    scene = read_scene(folder) if (folder / "scene.json").is_file() else None
+    if scene is None:
+        log.warning("%s has no scene.json: the report has no 3D scene and no per-sample plots", folder)
+    iso_path = folder / "iso9283.json"
+    iso = json.loads(iso_path.read_text(encoding="utf-8")) if iso_path.is_file() else None
+    path = Path(out) if out else folder / "report.html"
+    path.write_bytes(report_bytes(result, scene, meshes=meshes, iso9283=iso))
+    return path

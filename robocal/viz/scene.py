@@ -1,0 +1,257 @@
+"""What a visual check needs that result.json does not hold: the scene file of a calibration output.
+
+`scene_bytes(problem, result, params_before)` evaluates the model twice (the parameters before and after
+the fit) on every sample and records, in SI units:
+  - the world pose of every link (and of every measured frame) per sample, before and after, and the
+    skeleton drawn without meshes (robocal.viz.skeleton_layout), before and after;
+  - per measurement block and term: the sample(s) it uses, the measured point(s), the model's
+    prediction(s) and the raw residual vector, before and after, plus the measurement artefact (plane,
+    sphere, cylinder, ball bar, laser line, sphere artefact) at its initial and estimated values; pose
+    blocks also hold the measured and predicted orientations;
+  - the identification Jacobian's singular values and the rank the base-parameter selection kept.
+
+Poses come only from `SampleState.pose(frame)`, so a closed-chain machine (whose SampleState assembles its
+loops) is recorded exactly like a serial arm. Nothing here loads meshes: the viewer does that.
+Version 2 added the skeleton and `terms`; `read_scene` fills both in for a version-1 file.
+"""
+from __future__ import annotations
+
+import json
+import logging
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+from robocal.errors import InputError
+from robocal.model.kinematics import ModelState
+from robocal.estimation.problem import LazyStates
+from robocal.residuals.base import tilted_direction
+from robocal.viz.skeleton_layout import skeleton, skeleton_from_links
+from robocal.estimation.sphere_fit import fit_sphere
+
+log = logging.getLogger(__name__)
+
+FORMAT = "robocal-scene"
+VERSION = 2
+SUPPORTED = (1, 2)
+STATES = ("before", "after")
+
+
+def _pose7(M: pin.SE3) -> list[float]:
+    return [*M.translation.tolist(), *pin.Quaternion(M.rotation).coeffs().tolist()]
+
+
+def link_tree(robot) -> list[dict]:
+    """Links (BODY frames) with their parent link, root first: the skeleton drawn without meshes."""
+    frames = robot.model.frames
+    out = []
+    for fid, f in enumerate(frames):
+        if f.type != pin.FrameType.BODY:
+            continue
+        k, parent = f.parentFrame, None
+        while k != 0 and k != fid:
+            if frames[k].type == pin.FrameType.BODY:
+                parent = frames[k].name
+                break
+            k = frames[k].parentFrame
+        out.append({"name": f.name, "parent": parent})
+    return out
+
+
+def _aux(params, res) -> np.ndarray:
+    """A residual's auxiliary values from a parameter set (its own initial values where absent)."""
+    return np.array([params[p.name].value if p.name in params else p.value for p in res.aux_parameters()])
+
+
+# ---- per measurement type: (measured points, predicted points) of a term, world frame --------------
+def _points(res, k, M, aux) -> tuple[np.ndarray, np.ndarray]:
+    t = res.type_name
+    if t == "pose":
+        return res.measurements[k, None, :3], M.translation[None, :]
+    if t == "point":
+        return res.measurements[k, None, :], M.act(aux[:3])[None, :]
+    if t == "rigid_points":
+        P = aux.reshape(-1, 3)
+        return res.measurements[k].reshape(-1, 3), P @ M.rotation.T + M.translation
+    if t == "plane":
+        x = M.act(aux[3:6])
+        n = res.normal(aux)
+        r = n @ x - aux[2] - res.tip_radius
+        return (x - r * n)[None, :], x[None, :]
+    if t in ("sphere", "ball_bar"):
+        c = aux[:3]
+        x = M.act(aux[4:7])
+        e = (x - c) / np.linalg.norm(x - c)
+        length = aux[3] + res.tip_radius if t == "sphere" else res.measurements[k, 0] + aux[3]
+        return (c + length * e)[None, :], x[None, :]
+    if t == "cylinder":
+        a, u = res.axis(aux)
+        x = M.act(aux[5:8])
+        w = x - a
+        perp = w - (w @ u) * u
+        h = np.linalg.norm(perp)
+        touch = aux[4] + res.contact_sign * res.tip_radius
+        return (x - (h - touch) * perp / h)[None, :], x[None, :]
+    if t == "laser_line":
+        P, o = aux[:3], M.act(aux[3:6])
+        u = M.rotation @ tilted_direction(res.R0, aux[6], aux[7])[0]
+        return P[None, :], (o + ((P - o) @ u) * u)[None, :]
+    return np.zeros((0, 3)), np.zeros((0, 3))
+
+
+def _artefact_hits(res, k, states, aux) -> tuple[np.ndarray, np.ndarray, list]:
+    """A sphere-artefact placement: (measured, predicted) per hit, in term_samples order, and the fitted
+    centres. Predicted: the probe point; measured: where it would be on a sphere of the certified radius
+    about the fitted centre (as for a single sphere), so each arrow is that hit's radial error."""
+    meas, pred, centres = [], [], []
+    for j, hits in enumerate(res.placements[k]):
+        X = np.array([states[int(i)].pose(res.frame).act(res.point) for i in hits])
+        c = fit_sphere(X, source=f"{res.name}, placement {k}, sphere {j}").centre
+        e = (X - c) / np.linalg.norm(X - c, axis=1, keepdims=True)
+        meas.append(c + (aux[j] + aux[-1]) * e)
+        pred.append(X)
+        centres.append(c.tolist())
+    return np.vstack(meas), np.vstack(pred), centres
+
+
+def _artefact(res, aux) -> dict | None:
+    t = res.type_name
+    if t == "plane":
+        n = res.normal(aux)
+        return {"kind": "plane", "normal": n.tolist(), "offset": float(aux[2])}
+    if t == "sphere":
+        return {"kind": "sphere", "centre": aux[:3].tolist(), "radius": float(aux[3])}
+    if t == "cylinder":
+        a, u = res.axis(aux)
+        return {"kind": "cylinder", "point": a.tolist(), "direction": u.tolist(), "radius": float(aux[4])}
+    if t == "ball_bar":
+        return {"kind": "ball_bar", "centre": aux[:3].tolist()}
+    if t == "laser_line":
+        return {"kind": "laser_line", "target": aux[:3].tolist()}
+    if t == "sphere_artefact":     # the fitted centres are added per placement
+        return {"kind": "sphere_artefact", "radii": aux[:res.n_spheres].tolist(), "centres": []}
+    return None
+
+
+def identification(result) -> dict:
+    """The identification summary of a CalibrationResult, as the scene records it."""
+    sel = result.selection
+    return {"singular_values": np.asarray(sel.singular_values, float).tolist(), "rank": sel.rank,
+            "requested": len(result.requested), "rtol": sel.rtol, "condition": result.condition}
+
+
+def _block(res, states, param_sets) -> dict:
+    block = {"name": res.name, "type": res.type_name, "frame": getattr(res, "frame", None),
+             "samples": res.samples.tolist(), "terms": [list(res.term_samples(k)) for k in range(res.n_terms)],
+             "row_units": list(res.row_units), "sigma": res.sigma.tolist()}
+    for s in STATES:
+        aux = _aux(param_sets[s], res)
+        art = _artefact(res, aux) if hasattr(res, "frame") else None
+        meas, pred, rows, beams = [], [], [], []
+        for k in range(res.n_terms):
+            rows.append(res.evaluate(k, states[s], aux).r.tolist())
+            if res.type_name == "sphere_artefact":
+                m, p, centres = _artefact_hits(res, k, states[s], aux)
+                art["centres"].append(centres)
+            elif len(res.term_samples(k)) == 1 and hasattr(res, "frame"):
+                M = states[s][int(res.term_samples(k)[0])].pose(res.frame)
+                m, p = _points(res, k, M, aux)
+                if res.type_name == "laser_line":
+                    beams.append(M.act(aux[3:6]).tolist())   # where the beam leaves the tool
+            else:
+                continue
+            meas.append(m.tolist())
+            pred.append(p.tolist())
+        block[f"measured_{s}"] = meas
+        block[f"predicted_{s}"] = pred
+        block[f"residual_{s}"] = rows
+        block[f"artefact_{s}"] = art
+        if beams:
+            block[f"beam_origin_{s}"] = beams
+        if res.type_name == "pose":
+            block[f"orientation_{s}"] = [pin.Quaternion(states[s][int(i)].pose(res.frame).rotation).coeffs().tolist()
+                                         for i in res.samples]
+    if res.type_name == "pose":
+        block["measured_orientation"] = res.measurements[:, 3:7].tolist()
+    if not block["measured_after"]:
+        log.info("block %s (%s): no points to draw for this measurement type", res.name, res.type_name)
+    return block
+
+
+def scene_data(problem, result, params_before, ident: dict | None = None) -> dict:
+    """The scene of a calibration as plain data (see module doc). `problem` may be a config Setup;
+    `ident` replaces `identification(result)` (result may then be None)."""
+    problem = getattr(problem, "problem", problem)
+    robot = problem.robot
+    links = link_tree(robot)
+    measured_frames = [f for f in dict.fromkeys(getattr(r, "frame", None) for r in problem.residuals) if f]
+    # closed chains: each closure's two anchor frames, to draw the links reaching them and the joint
+    closures = [{"name": c.name, "frames": [c.frame1, c.frame2],
+                 "links": [robot.model.frames[robot.model.frames[robot.frame_id(f)].parentFrame].name
+                           for f in (c.frame1, c.frame2)]}
+                for c in (robot.loops.closures if robot.loops is not None else [])]
+    anchors = [f for c in closures for f in c["frames"]]
+    frame_names = list(dict.fromkeys([lk["name"] for lk in links] + measured_frames + anchors))
+    param_sets = {"before": params_before, "after": problem.params}
+    models = {s: ModelState(robot, p, problem.joint_names) for s, p in param_sets.items()}
+    for ms in models.values():            # closed chains: assemble from the fit's last solutions
+        ms.warm_starts = dict(problem.warm_starts)
+    states = {s: LazyStates(ms, problem.values, problem.directions) for s, ms in models.items()}
+    n = len(problem.values)
+    poses = {s: [[_pose7(states[s][i].pose(f)) for f in frame_names] for i in range(n)] for s in STATES}
+    return {
+        "format": FORMAT, "version": VERSION, "units": "SI (m, rad)",
+        "robot": {"name": robot.name, "urdf_path": str(robot.urdf_path) if robot.urdf_path else None,
+                  "package_dirs": list(robot.package_dirs), "links": links,
+                  "closed_chain": robot.loops is not None, "closures": closures,
+                  "skeleton": {s: skeleton(robot, models[s].model, links) for s in STATES}},
+        "joint_names": list(problem.joint_names),
+        "values": problem.values.tolist(),
+        "frames": frame_names,
+        "poses": poses,
+        "blocks": [_block(res, states, param_sets) for res in problem.residuals],
+        "identification": ident if ident is not None else identification(result),
+    }
+
+
+def scene_bytes(problem, result, params_before) -> bytes:
+    """scene.json content for `write_results(..., extra={"scene.json": ...})`."""
+    return json.dumps(scene_data(problem, result, params_before), separators=(",", ":")).encode("utf-8")
+
+
+def read_scene(path: str | Path) -> dict:
+    """Load and check a scene.json (a file, or a result folder holding one)."""
+    path = Path(path)
+    if path.is_dir():
+        path = path / "scene.json"
+    if not path.is_file():
+        raise InputError("no scene.json: this result was written without visual-check data "
+                         "(re-run `robocal calibrate` with a version that writes it)", source=str(path))
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except json.JSONDecodeError as exc:
+        raise InputError(f"not valid JSON: {exc.msg}", source=str(path), row=exc.lineno) from exc
+    if not isinstance(data, dict) or data.get("format") != FORMAT:
+        raise InputError(f"not a robocal scene file (expected format '{FORMAT}')", source=str(path), field="format")
+    if data.get("version") not in SUPPORTED:
+        raise InputError(f"scene file version {data.get('version')} is not supported (expected one of "
+                         f"{', '.join(map(str, SUPPORTED))})", source=str(path), field="version")
+    for key in ("robot", "frames", "poses", "blocks", "values", "identification"):
+        if key not in data:
+            raise InputError("required key is missing", source=str(path), field=key)
+    n = len(data["values"])
+    for s in STATES:
+        if len(data["poses"].get(s, [])) != n:
+            raise InputError(f"poses.{s} must have one entry per sample ({n})", source=str(path), field=f"poses.{s}")
+    return upgrade(data)
+
+
+def upgrade(data: dict) -> dict:
+    """A version-1 scene in the version-2 layout (skeleton from the link origins, one sample per term)."""
+    if data.get("version") == 1:
+        data["robot"]["skeleton"] = {s: skeleton_from_links(data, s) for s in STATES}
+        for b in data["blocks"]:
+            b["terms"] = [[i] for i in b["samples"]]
+        data["version"] = VERSION
+    return data
