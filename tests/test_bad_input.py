@@ -5,7 +5,7 @@ from pathlib import Path
 
 import pytest
 
-from robocal.cli import main
+from robocal.cli.main import main
 
 DEMO = Path(__file__).parents[1] / "robocal" / "io" / "demo"
 

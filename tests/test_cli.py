@@ -6,7 +6,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from robocal.cli import main
+from robocal.cli.main import main
 
 DEMO = Path(__file__).parents[1] / "robocal" / "io" / "demo"
 

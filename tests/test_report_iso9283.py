@@ -3,7 +3,7 @@ import json
 
 from lxml import html as lhtml
 
-from robocal.cli import main
+from robocal.cli.main import main
 from test_iso9283_cli import _write_dataset
 
 

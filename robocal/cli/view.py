@@ -11,7 +11,7 @@ from pathlib import Path
 from robocal.errors import InputError
 
 
-def add_parsers(subparsers) -> None:
+def add_parser(subparsers) -> None:
     v = subparsers.add_parser("view", help="show a calibration result in meshcat (or write it as a static HTML page)")
     v.add_argument("result", help="output folder of `robocal calibrate` (with scene.json)")
     v.add_argument("--html", metavar="FILE", help="write a self-contained HTML page of the scene and exit "
@@ -23,6 +23,8 @@ def add_parsers(subparsers) -> None:
     r.add_argument("result", help="output folder of `robocal calibrate`")
     r.add_argument("-o", "--output", help="report file (default: RESULT/report.html)")
     r.add_argument("--no-meshes", action="store_true", help="simple shapes in the 3D scene (a much smaller file)")
+    v.set_defaults(handler=cmd_view)
+    r.set_defaults(handler=cmd_report)
 
 
 def _scene(folder: str):

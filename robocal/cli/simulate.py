@@ -1,0 +1,19 @@
+"""`robocal simulate CONFIG`: a synthetic dataset and its truth from the config's `simulation:` section."""
+from __future__ import annotations
+
+from robocal.design.dataset import simulate_dataset
+
+
+def cmd_simulate(args) -> int:
+    written = simulate_dataset(args.config, args.output, seed=args.seed, force=args.force)
+    print("Wrote " + ", ".join(str(p) for p in written))
+    return 0
+
+
+def add_parser(subparsers) -> None:
+    s = subparsers.add_parser("simulate", help="write a synthetic dataset (and its truth) from a YAML config")
+    s.add_argument("config", help="calibration YAML with a simulation: section (docs/config.md)")
+    s.add_argument("-o", "--output", help="CSV to write (default: the config's data.csv)")
+    s.add_argument("--seed", type=int, default=None, help="random seed (default: the config's simulation.seed)")
+    s.add_argument("--force", action="store_true", help="replace existing output")
+    s.set_defaults(handler=cmd_simulate)

@@ -1,0 +1,178 @@
+"""ISO 9283 pose and distance figures from a calibration config for the nominal and the calibrated model.
+
+The config is a calibration YAML (robot, data, parameters, measurements, solver) plus a section:
+
+    iso9283:
+      pose_id: pose               # column holding the commanded pose's label; rows with an empty
+                                  # cell are calibration-only rows and take no part in the figures
+      measurement: tracker        # the pose block whose measurements are the attained poses
+                                  # (default: the config's only pose block)
+      commanded: [xc, yc, zc, qxc, qyc, qzc, qwc]   # optional: commanded pose columns (measurement
+                                  # frame, the data's length unit, quaternion scalar last); default:
+                                  # the nominal model at the commanded joints
+      distance_pairs: [[P1, P2]]  # optional; default: consecutive poses in order of appearance
+
+The commanded joints of a pose are the mean of its visits' readings. The calibrated model comes from
+fitting the config's measurements (all rows), or from a previous result with --parameters
+result.json. Attained poses under a model are predicted as in robocal.estimation.iso9283.model_attained.
+"""
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+import yaml
+
+from robocal.errors import InputError
+from robocal.estimation.iso9283 import Iso9283Figures, group_visits, iso9283_figures, model_attained, pose6, summary
+
+SECTION_KEYS = ("pose_id", "measurement", "commanded", "distance_pairs")
+
+
+@dataclass
+class Iso9283Run:
+    nominal: Iso9283Figures
+    calibrated: Iso9283Figures
+    result: object | None          # the CalibrationResult when robocal fitted the model here
+    frame: str
+
+    def to_dict(self) -> dict:
+        return {"frame": self.frame, "units": "SI (m, rad)", "nominal": self.nominal.to_dict(),
+                "calibrated": self.calibrated.to_dict(),
+                "calibration_status": None if self.result is None else self.result.status}
+
+
+def _read_section(path: Path):
+    from robocal.io.config import TOP_KEYS, Cfg
+    if not path.is_file():
+        raise InputError("config file not found", source=str(path))
+    try:
+        raw = yaml.safe_load(path.read_text(encoding="utf-8")) or {}
+    except yaml.YAMLError as exc:
+        raise InputError(f"not valid YAML: {exc}", source=str(path)) from exc
+    if not isinstance(raw, dict):
+        raise InputError("expected a mapping at the top level", source=str(path))
+    sec = Cfg(raw.get("iso9283"), "iso9283", str(path))
+    if sec.value is None:
+        raise sec.error("the config needs an 'iso9283' section (pose_id, measurement, commanded)")
+    sec.check_keys(SECTION_KEYS)
+    # checked before any fitting, so a mistake costs no time
+    sec.get("pose_id", required=True, types=str)
+    cols = sec.get("commanded", types=list)
+    if cols is not None and len(cols) != 7:
+        raise sec.error(f"commanded needs 7 columns (x y z qx qy qz qw), got {len(cols)}", "commanded")
+    pairs = sec.get("distance_pairs", types=list)
+    if pairs is not None and not all(isinstance(p, list) and len(p) == 2 for p in pairs):
+        raise sec.error("expected a list of [pose, pose] pairs", "distance_pairs")
+    rest = {k: v for k, v in raw.items() if k != "iso9283" and k != "simulation"}
+    root = Cfg(rest, "", str(path))
+    root.check_keys(TOP_KEYS)
+    return sec, root, rest
+
+
+def _pose_block(problem, sec):
+    poses = [r for r in problem.residuals if r.type_name == "pose"]
+    name = sec.get("measurement", types=str)
+    if name is None:
+        if len(poses) != 1:
+            raise sec.error(f"name the pose block to use ({', '.join(r.name for r in poses) or 'none found'})",
+                            "measurement")
+        return poses[0]
+    hit = [r for r in poses if r.name == name]
+    if not hit:
+        raise sec.error(f"no pose block named '{name}' (pose blocks: {', '.join(r.name for r in poses)})",
+                        "measurement")
+    return hit[0]
+
+
+def _cells(setup, res, column: str):
+    """(table rows, cell text) of `column` for each term of `res`."""
+    out = []
+    for k in range(res.n_terms):
+        file, row = setup.sample_rows[int(res.samples[k])]
+        tab = setup.tables[file]
+        if not tab.has(column):
+            raise InputError(f"missing column (columns present: {', '.join(tab.header)})", source=file,
+                             field=column)
+        out.append((tab, row, tab.cells[row][tab.header.index(column)].strip()))
+    return out
+
+
+def _commanded_columns(sec, setup, res, terms):
+    cols = sec.get("commanded", types=list)
+    if cols is None:
+        return None
+    length_unit = ((setup.raw.get("data") or {}).get("units") or {}).get("length", "m")
+    out = []
+    for k in terms:
+        file, row = setup.sample_rows[int(res.samples[k])]
+        tab = setup.tables[file]
+        xyz = [tab.column(str(c), "length", length_unit, [row])[0] for c in cols[:3]]
+        quat = np.array([tab.column(str(c), "", None, [row])[0] for c in cols[3:]])
+        norm = np.linalg.norm(quat)
+        if not 0.5 < norm < 1.5:
+            raise InputError(f"commanded quaternion has norm {norm:.3g}; expected a unit quaternion",
+                             source=file, row=tab.line(row), field=str(cols[3]))
+        qx, qy, qz, qw = quat / norm
+        out.append(pin.SE3(pin.Quaternion(qw, qx, qy, qz).toRotationMatrix(), np.array(xyz)))
+    return out
+
+
+def iso9283_from_config(config, parameters=None) -> Iso9283Run:
+    """Figures of the config's ISO rows for the nominal and the calibrated model (see module doc)."""
+    from robocal.estimation.calibrate import calibrate
+    from robocal.io.config import build_setup
+    from robocal.model.kinematics import ModelState
+
+    path = Path(config).resolve()
+    sec, root, rest = _read_section(path)
+    setup = build_setup(root, path.parent, rest)
+    problem = setup.problem
+    res = _pose_block(problem, sec)
+    id_col = sec.get("pose_id", required=True, types=str)
+    cells = _cells(setup, res, id_col)
+    terms = [k for k, (_, _, text) in enumerate(cells) if text]
+    if not terms:
+        raise InputError(f"no row has a pose id in column '{id_col}'", source=str(cells[0][0].path) if cells else None,
+                         field=id_col)
+    ids = [cells[k][2] for k in terms]
+    values = problem.values[res.samples[terms]]
+    measured = [pin.SE3(pin.Quaternion(m[6], m[3], m[4], m[5]).toRotationMatrix(), m[:3].copy())
+                for m in res.measurements[terms]]
+    nominal_params = problem.params.copy()
+    result = None
+    if parameters is not None:
+        _apply_result(problem.params, Path(parameters))
+    else:
+        result = calibrate(problem, setup.options, source=str(path))
+    groups = group_visits(ids)
+    q_c = {pid: values[rows].mean(axis=0) for pid, rows in groups.items()}
+    nominal_ms = ModelState(setup.robot, nominal_params, problem.joint_names)
+    calibrated_ms = ModelState(setup.robot, problem.params, problem.joint_names)
+    fk = {name: {pid: ms.sample(q).pose(res.frame) for pid, q in q_c.items()}
+          for name, ms in (("nominal", nominal_ms), ("calibrated", calibrated_ms))}
+    commanded = _commanded_columns(sec, setup, res, terms) or [fk["nominal"][pid] for pid in ids]
+    pairs = sec.get("distance_pairs", types=list)
+    figures = {}
+    for name in ("nominal", "calibrated"):
+        attained = model_attained([fk["nominal"][pid] for pid in ids], [fk[name][pid] for pid in ids], measured)
+        figures[name] = iso9283_figures(ids, [pose6(P) for P in commanded], [pose6(A) for A in attained],
+                                        pairs, label=name)
+    return Iso9283Run(figures["nominal"], figures["calibrated"], result, res.frame)
+
+
+def _apply_result(params, path: Path) -> None:
+    try:
+        doc = json.loads(path.read_text(encoding="utf-8"))
+        entries = doc["parameters"]
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        raise InputError(f"not a robocal result.json ({exc})", source=str(path)) from exc
+    for i, e in enumerate(entries):
+        name = e.get("name") if isinstance(e, dict) else None
+        if name is None or name not in params:
+            raise InputError(f"parameter '{name}' is not part of this config's model", source=str(path),
+                             field=f"parameters[{i}]")
+        params[name].value = float(e["value"])
