@@ -10,13 +10,13 @@ import pytest
 
 from robocal.errors import InputError
 from robocal.viz.report import report_bytes, write_report
-from robocal.cli.view import add_parsers, cmd_report, cmd_view
+from robocal.cli.view import add_parser, cmd_report, cmd_view
 from test_viz_scene_data import all_types_case, all_types_scene, demo_result_dir
 
 
 def _parse(argv):
     parser = argparse.ArgumentParser()
-    add_parsers(parser.add_subparsers(dest="command", required=True))
+    add_parser(parser.add_subparsers(dest="command", required=True))
     return parser.parse_args(argv)
 
 

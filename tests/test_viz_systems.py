@@ -22,7 +22,7 @@ from robocal.viz.scene import read_scene, scene_bytes
 from robocal.systems.pcmm.scene import write_pcmm_scene
 from robocal.design.simulate import perturb, simulate_measurements
 from robocal.viz import SceneView
-from robocal.viz.shapes import _se3
+from robocal.viz.shapes import se3_from_pose7
 
 import laser_psd_cases as lc
 
@@ -31,7 +31,7 @@ REPO = Path(__file__).resolve().parents[1]
 
 
 def _world(scene, state, i, link, p):
-    M = _se3(scene["poses"][state][i][scene["frames"].index(link)])
+    M = se3_from_pose7(scene["poses"][state][i][scene["frames"].index(link)])
     return M.act(np.asarray(p, float))
 
 

@@ -1,6 +1,6 @@
 """`robocal view RESULT` and `robocal report RESULT`: the command-line side of the visual checks.
 
-`add_parsers(subparsers)` registers both sub-commands; robocal.cli.main dispatches to `cmd_view` / `cmd_report`.
+`add_parser(subparsers)` registers both sub-commands; robocal.cli.main dispatches to `cmd_view` / `cmd_report`.
 Like robocal.cli.main, this module owns the terminal; the library modules it calls only log.
 """
 from __future__ import annotations

@@ -25,6 +25,7 @@ import numpy as np
 from robocal.design import criteria as dc
 from robocal.errors import InputError
 from robocal.estimation.identifiability import BaseSelection, select_base_parameters
+from robocal.design.simulate import simulate_measurements
 
 log = logging.getLogger(__name__)
 
@@ -155,7 +156,6 @@ def nominal_measurements(problem) -> set[int]:
     """Set every observed residual's measurements to the prediction at the current parameters, and move
     every contact-type candidate (plane, sphere, cylinder, laser line) onto its contact on the nominal
     model. Returns the candidates that cannot reach their contact (to be left out)."""
-    from robocal.design.simulate import simulate_measurements
     return simulate_measurements(problem, problem.params, _NoNoise(), skip_unreachable=True)
 
 

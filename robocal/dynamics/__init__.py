@@ -1,5 +1,5 @@
 """Dynamics: actuators, friction, external force from motor currents, force-regulated path
-following (seed 004), a servo simulator, and dynamic identification. See docs/dynamics.md."""
+following (docs/dynamics.md), a servo simulator, and dynamic identification. See docs/dynamics.md."""
 from robocal.dynamics.actuators import ActuatorModel
 from robocal.dynamics.differentiation import TickDifferentiator, differentiate
 from robocal.dynamics.environment import ConstantForce, Environment, ViscousLoad, Wall

@@ -3,7 +3,7 @@
 fit_sphere minimises sum_k (|X_k - c| - r)^2 by Gauss-Newton started from the algebraic fit
 (|X|^2 = 2 c.X + k, r^2 = k + |c|^2). sphere_fit_sensitivity gives d[c; r]/dX (4, 3N) by the
 implicit-function theorem on the optimality condition J^T res = 0, exact also at non-zero residual;
-at zero residual it reduces to (G^T G)^-1 G^T diag(n_k^T) with G = [n_k^T 1] (spec seed-003 §7.2).
+at zero residual it reduces to (G^T G)^-1 G^T diag(n_k^T) with G = [n_k^T 1] (docs/pcmm_calibration.md).
 """
 from __future__ import annotations
 

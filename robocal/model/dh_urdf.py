@@ -105,7 +105,7 @@ def write_dh_urdf(rows: list[DHRow], path: str | Path, name: str, **kwargs) -> P
 
 
 DEG = np.pi / 180.0
-# ABB IRB1600-x/1.45: DH reconstructed in seed-001 spec section 6.6 from the ROS-Industrial
+# ABB IRB1600-x/1.45: DH reconstructed (docs/laser_psd.md) from the ROS-Industrial
 # abb_irb1600_support description (J2 at 150 / 486.5 mm, upper arm 700, forearm 300 + 300, flange 65 mm);
 # limits are the ROS-Industrial ones (with all joint signs +1 the DH q equals the URDF q).
 IRB1600_145 = [
@@ -116,7 +116,7 @@ IRB1600_145 = [
     DHRow(0.0, -90 * DEG, 0.0, 0.0, -2.0071, 2.0071),
     DHRow(0.0, 0.0, 0.065, 180 * DEG, -6.9813, 6.9813),
 ]
-IRB1600_NOTE = ("ABB IRB1600-x/1.45 built from the standard DH table of the seed-001 spec (section 6.6) by "
+IRB1600_NOTE = ("ABB IRB1600-x/1.45 built from its standard DH table (docs/laser_psd.md) by "
                 "robocal.model.dh_urdf. tool0 is DH frame 6 (z out of the flange), as ROS-Industrial's "
                 "tool0. Do not edit by hand; regenerate with write_dh_urdf(IRB1600_145, ...).")
 

@@ -21,8 +21,19 @@ import pinocchio as pin
 import yaml
 from scipy import stats
 
-from robocal.io.text_files import numbers_in
+from robocal.design.simulate import perturb, random_configurations, simulate_measurements
 from robocal.errors import InputError, RobocalError
+from robocal.estimation.calibrate import CalibrationOptions, calibrate
+from robocal.estimation.identifiability import select_base_parameters
+from robocal.estimation.problem import Problem
+from robocal.estimation.result import UNIT_SCALE, block_statistics
+from robocal.io.config import TOP_KEYS, Cfg, build_setup
+from robocal.io.text_files import numbers_in
+from robocal.model.kinematics import ModelState
+from robocal.model.loops import assemble
+from robocal.model.parameters import robot_parameters
+from robocal.model.robot import EXAMPLES, Robot, load_example, load_urdf
+from robocal.residuals import PoseResidual
 
 # Central differences: truncation ~ h^2 |f'''| / 6, rounding ~ eps |f| / h; h = 1e-6 balances them at
 # ~1e-10 for O(1) functions, so 1e-6 leaves room for curvature and still catches any wrong column.
@@ -111,7 +122,6 @@ def assert_frame_jacobians(robot, params, joint_names, values, frame: str, h: fl
     model_state(robot, params, joint_names) builds the state (default robocal.model.kinematics.ModelState);
     pass your own to test a custom kinematics layer.
     """
-    from robocal.model.kinematics import ModelState
     make = model_state or ModelState
     values = np.asarray(values, dtype=float)
     s0 = make(robot, params, joint_names).sample(values)
@@ -154,11 +164,6 @@ def synthetic_pose_case(robot="ur5", n_samples: int = 40, seed: int = 0, frame: 
     robot: a Robot, an example name or a URDF path. Only identifiable parameters are perturbed by
     default, so the truth is recoverable parameter by parameter.
     """
-    from robocal.estimation.identifiability import select_base_parameters
-    from robocal.model.parameters import robot_parameters
-    from robocal.estimation.problem import Problem
-    from robocal.residuals import PoseResidual
-    from robocal.design.simulate import perturb, random_configurations, simulate_measurements
 
     rng = np.random.default_rng(seed)
     robot = load_robot(robot)
@@ -187,7 +192,6 @@ def assert_calibration_recovers(problem, truth, options=None, alpha: float = 1e-
     Parameters the data cannot determine are skipped: perturb only identifiable ones in the truth.
     Returns the CalibrationResult.
     """
-    from robocal.estimation.calibrate import CalibrationOptions, calibrate
 
     opts = copy.copy(options) if options is not None else CalibrationOptions()
     opts.scale_covariance = False
@@ -226,7 +230,6 @@ def assert_calibration_recovers(problem, truth, options=None, alpha: float = 1e-
 # ---- datasets and URDFs -----------------------------------------------------------------------------
 def load_robot(robot_or_name):
     """A Robot from a Robot, an example name ('ur5') or a URDF path."""
-    from robocal.model.robot import EXAMPLES, Robot, load_example, load_urdf
     if isinstance(robot_or_name, Robot):
         return robot_or_name
     text = str(robot_or_name)
@@ -252,7 +255,6 @@ def dataset_setup(config, urdf=None):
 
     Sections other than robot, data, parameters, measurements, solver and output are ignored.
     """
-    from robocal.io.config import TOP_KEYS, Cfg, build_setup
     path = Path(config).resolve()
     if not path.is_file():
         raise InputError("config file not found", source=str(path))
@@ -276,8 +278,6 @@ def assert_reproduces_dataset(config, urdf=None, rms=None, max=None, blocks: dic
     fit_setup     fit those set-up parameters first (the robot's own parameters stay as the URDF has them)
     Returns the list of BlockStats (mm / mrad).
     """
-    from robocal.estimation.calibrate import calibrate
-    from robocal.estimation.result import UNIT_SCALE, block_statistics
 
     setup = dataset_setup(config, urdf)
     problem, robot = setup.problem, setup.robot
@@ -320,7 +320,6 @@ def assert_urdf_loads(urdf, frames: Sequence[str] = (), home=None, package_dirs=
     a serial robot is checked for a finite forward kinematics at neutral instead.
     Returns the Robot.
     """
-    from robocal.model.robot import load_urdf
     try:
         robot = load_urdf(urdf, package_dirs) if package_dirs else load_robot(urdf)
     except RobocalError as exc:
@@ -337,7 +336,6 @@ def assert_urdf_loads(urdf, frames: Sequence[str] = (), home=None, package_dirs=
     q0 = robot.neutral()
     loops = getattr(robot, "loops", None)
     if loops is not None and getattr(loops, "closures", None):
-        from robocal.model.loops import assemble
         values = loops.actuated_values(q0) if home is None else np.asarray(home, dtype=float)
         try:
             q0 = assemble(robot, robot.model, values, sample="home")

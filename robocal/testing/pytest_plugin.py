@@ -23,6 +23,9 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+from robocal.testing.assertions import dataset_setup
+from robocal.testing.assertions import load_robot
+from robocal.testing.assertions import synthetic_pose_case
 
 
 def pytest_addoption(parser):
@@ -77,13 +80,11 @@ def robocal_urdf(request):
 @pytest.fixture
 def robocal_setup(robocal_dataset, robocal_urdf):
     """A fresh Setup per test (calibrating changes its parameters)."""
-    from robocal.testing.assertions import dataset_setup
     return dataset_setup(robocal_dataset, robocal_urdf)
 
 
 @pytest.fixture(scope="session")
 def robocal_load_robot():
-    from robocal.testing.assertions import load_robot
     return load_robot
 
 
@@ -103,7 +104,6 @@ def robocal_seed(request) -> int:
 
 @pytest.fixture
 def robocal_synthetic(robocal_seed):
-    from robocal.testing.assertions import synthetic_pose_case
 
     def make(robot="ur5", n_samples: int = 40, seed: int | None = None, **kwargs):
         return synthetic_pose_case(robot, n_samples, robocal_seed if seed is None else seed, **kwargs)

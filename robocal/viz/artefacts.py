@@ -9,7 +9,7 @@ import numpy as np
 import pinocchio as pin
 
 from robocal.residuals.base import basis_from_normal
-from robocal.viz.shapes import COLOURS, _segment_transform, _segments_object
+from robocal.viz.shapes import COLOURS, segment_transform, segments_object
 
 
 def _at(p) -> np.ndarray:
@@ -41,20 +41,20 @@ def draw_artefact(view, b: dict) -> None:
             p0, u = np.array(a["point"]), np.array(a["direction"])
             t = (meas - p0) @ u
             node.set_object(mg.Cylinder(1.0, 1.0), mat)
-            node.set_transform(_segment_transform(p0 + (t.min() - 0.05) * u, p0 + (t.max() + 0.05) * u, a["radius"]))
+            node.set_transform(segment_transform(p0 + (t.min() - 0.05) * u, p0 + (t.max() + 0.05) * u, a["radius"]))
         elif kind == "ball_bar":
             c = np.array(a["centre"])
             node["ball"].set_object(mg.Sphere(0.011), mg.MeshLambertMaterial(color=COLOURS["steel"]))
             node["ball"].set_transform(_at(c))
             pos = np.column_stack([np.tile(c, (len(pred), 1)), pred]).reshape(-1, 3).T.astype(np.float32)
-            node["bars"].set_object(_segments_object(pos, colour=0x606060))
+            node["bars"].set_object(segments_object(pos, colour=0x606060))
         elif kind == "laser_line":
             P, o = np.array(a["target"]), np.array(b[f"beam_origin_{s}"]).reshape(-1, 3)
             node["fixed_point"].set_object(mg.Sphere(0.008), mg.MeshLambertMaterial(color=COLOURS["laser"]))
             node["fixed_point"].set_transform(_at(P))
             ends = o + 1.15 * (pred - o)
             pos = np.column_stack([o, ends]).reshape(-1, 3).T.astype(np.float32)
-            node["beams"].set_object(_segments_object(pos, colour=COLOURS["laser"]))
+            node["beams"].set_object(segments_object(pos, colour=COLOURS["laser"]))
         elif kind == "sphere_artefact":
             _sphere_artefact(node, a, s)
         if s == "before":
@@ -70,4 +70,4 @@ def _sphere_artefact(node, a: dict, state: str) -> None:
             node[f"placement{g}"][f"sphere{j}"].set_transform(_at(c))
         bars += [(centres[j], centres[m]) for j in range(len(centres)) for m in range(j + 1, len(centres))]
     pos = np.array(bars, np.float32).reshape(-1, 3).T
-    node["bars"].set_object(_segments_object(pos, colour=0x606060))
+    node["bars"].set_object(segments_object(pos, colour=0x606060))

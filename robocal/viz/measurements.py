@@ -9,7 +9,7 @@ from __future__ import annotations
 import meshcat.geometry as mg
 import numpy as np
 
-from robocal.viz.shapes import (COLOURS, _points_object, _segments_object, arrows, colour_scale, magnified_rotations,
+from robocal.viz.shapes import (COLOURS, points_object, segments_object, arrows, colour_scale, magnified_rotations,
                          nice_factor, quat_rotations, triads)
 
 TRIAD_ANGLE = 0.35           # rad: the largest rotation residual is drawn about 20 degrees
@@ -35,15 +35,15 @@ def draw_measurements(view, b: dict) -> None:
     if not len(meas):
         return
     size = 0.006 * max(view.size, 0.5)
-    node["measured"].set_object(_points_object(meas, COLOURS["measured"], size))
+    node["measured"].set_object(points_object(meas, COLOURS["measured"], size))
     for s in ("before", "after"):
         m = np.array(b[f"measured_{s}"]).reshape(-1, 3)
         p = np.array(b[f"predicted_{s}"]).reshape(-1, 3)
-        node[f"predicted_{s}"].set_object(_points_object(p, COLOURS[s], size))
+        node[f"predicted_{s}"].set_object(points_object(p, COLOURS[s], size))
         err = np.linalg.norm(p - m, axis=1)
         pos, col = arrows(m, view.arrow_scale[s] * (p - m), colour_scale(err, view.arrow_max[s]))
         if pos.size:
-            node[f"residual_{s}"].set_object(_segments_object(pos, col))
+            node[f"residual_{s}"].set_object(segments_object(pos, col))
     node["predicted_before"].set_property("visible", False)
     if b["type"] == "pose":
         _pose_triads(view, node, b, meas)
@@ -54,11 +54,11 @@ def draw_measurements(view, b: dict) -> None:
 def _pose_triads(view, node, b: dict, origins: np.ndarray) -> None:
     length = TRIAD_FRACTION * view.size
     R_meas = quat_rotations(b["measured_orientation"])
-    node["triad_measured"].set_object(_segments_object(*triads(origins, R_meas, length, AXES)))
+    node["triad_measured"].set_object(segments_object(*triads(origins, R_meas, length, AXES)))
     for s in ("before", "after"):
         R = magnified_rotations(quat_rotations(b[f"orientation_{s}"]), R_meas, view.rotation_scale[s])
         colour = np.tile(np.array([(COLOURS[s] >> k) & 255 for k in (16, 8, 0)]) / 255.0, (3, 1))
-        node[f"triad_{s}"].set_object(_segments_object(*triads(origins, R, length, colour)))
+        node[f"triad_{s}"].set_object(segments_object(*triads(origins, R, length, colour)))
     node["triad_before"].set_property("visible", False)
 
 

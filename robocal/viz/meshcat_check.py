@@ -33,8 +33,9 @@ from robocal.viz.meshcat_page import STEP_SCRIPT, RecordingWindow
 from robocal.viz.scene import upgrade
 from robocal.viz.artefacts import draw_artefact
 from robocal.viz.measurements import current_point, draw_measurements, label_parts, rotation_scale
-from robocal.viz.shapes import ARROW_FRACTION, COLOURS, _se3, arrows, colour_scale, nice_factor  # noqa: F401 (arrows, colour_scale: public here)
+from robocal.viz.shapes import ARROW_FRACTION, COLOURS, nice_factor, se3_from_pose7
 from robocal.viz.skeleton import draw_skeleton, segment_at
+from robocal.model.robot import load_urdf
 
 log = logging.getLogger(__name__)
 
@@ -47,7 +48,6 @@ def load_visuals(robot_info: dict) -> list[tuple[str, object, object, np.ndarray
 
     Empty when the URDF cannot be read or has no visual elements: the caller then draws simple shapes.
     """
-    from robocal.model.robot import load_urdf
 
     path = robot_info.get("urdf_path")
     if not path or not Path(path).is_file():
@@ -136,7 +136,7 @@ class SceneView:
         self.drawn = False
 
     def pose(self, state: str, sample: int, frame: str) -> np.ndarray:
-        return _se3(self.scene["poses"][state][sample][self.frames[frame]]).homogeneous
+        return se3_from_pose7(self.scene["poses"][state][sample][self.frames[frame]]).homogeneous
 
     # ---- drawing -------------------------------------------------------------------------------
     def draw(self, sample: int = 0) -> "SceneView":

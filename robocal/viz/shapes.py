@@ -14,7 +14,7 @@ SCALE_STOPS = np.array([[0.0, 0.10, 0.60, 0.31], [0.5, 0.99, 0.88, 0.55], [1.0, 
 ARROW_FRACTION = 0.08      # the largest arrow is drawn this fraction of the scene's size
 
 
-def _se3(p7) -> pin.SE3:
+def se3_from_pose7(p7) -> pin.SE3:
     x, y, z, qx, qy, qz, qw = p7
     return pin.SE3(pin.Quaternion(qw, qx, qy, qz).toRotationMatrix(), np.array([x, y, z]))
 
@@ -51,16 +51,16 @@ def arrows(start: np.ndarray, vec: np.ndarray, colours: np.ndarray) -> tuple[np.
     return np.array(pos, np.float32).reshape(-1, 3).T, np.array(col, np.float32).reshape(-1, 3).T
 
 
-def _points_object(points: np.ndarray, colour: int, size: float):
+def points_object(points: np.ndarray, colour: int, size: float):
     return mg.Points(mg.PointsGeometry(points.T.astype(np.float32)), mg.PointsMaterial(size=size, color=colour))
 
 
-def _segments_object(pos: np.ndarray, col: np.ndarray | None = None, colour: int = 0xffffff):
+def segments_object(pos: np.ndarray, col: np.ndarray | None = None, colour: int = 0xffffff):
     return mg.LineSegments(mg.PointsGeometry(pos, col),
                            mg.LineBasicMaterial(color=colour, vertexColors=col is not None))
 
 
-def _segment_transform(a: np.ndarray, b: np.ndarray, radius_scale: float = 1.0) -> np.ndarray:
+def segment_transform(a: np.ndarray, b: np.ndarray, radius_scale: float = 1.0) -> np.ndarray:
     """4x4 taking meshcat's unit cylinder (axis y, centred) onto the segment a -> b."""
     d = b - a
     # basis_from_normal gives a rotation with z along d; Rx(90 deg) brings y onto z.

@@ -10,7 +10,7 @@ from __future__ import annotations
 import meshcat.geometry as mg
 import numpy as np
 
-from robocal.viz.shapes import _segment_transform
+from robocal.viz.shapes import segment_transform
 
 RADIUS = {"link": 1.0, "arm": 0.6, "plate": 0.6}      # times the skeleton's radius
 SPHERE = {"joint": 1.6, "closure": 1.4}
@@ -35,7 +35,7 @@ def draw_skeleton(view, name: str, state: str, colour: int, radius: float, opaci
         if np.abs(local - local[0]).max() < TOL:
             node = view.root[name][a][f"segment{k}"]
             node.set_object(geom, mat)
-            node.set_transform(_segment_transform(np.asarray(pa, float), local[0]))
+            node.set_transform(segment_transform(np.asarray(pa, float), local[0]))
         else:
             view.root[name]["moving"][f"segment{k}"].set_object(geom, mat)
             moving.append((f"{name}/moving/segment{k}", state, (a, pa, b, pb)))
@@ -57,4 +57,4 @@ def segment_at(view, state: str, sample: int, ends) -> np.ndarray:
         T = np.zeros((4, 4))
         T[:3, 3], T[3, 3] = wa[:3], 1.0
         return T
-    return _segment_transform(wa[:3], wb[:3])
+    return segment_transform(wa[:3], wb[:3])

@@ -1,4 +1,4 @@
-"""Calibrating a rod-end-floating hexapod through the generic layer (seed-002 §7.6).
+"""Calibrating a rod-end-floating hexapod through the generic layer (docs/floating_nut_hexapod.md).
 
 The machine's URDF (mechanisms/floating_nut_urdf) is a closed chain whose stroke joints are driven
 through `<screw_transmission>` rows (robocal.model.joint_relations): the encoder reading u is the command

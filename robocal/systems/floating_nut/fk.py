@@ -1,6 +1,6 @@
 """Single-pose Newton FK of the floating-nut hexapod, written against numpy's per-call overhead.
 
-Same method and iterates as the batch `FloatingNutKinematics.fk` (spec seed-002 §4: Newton in the pose
+Same method and iterates as the batch `FloatingNutKinematics.fk` (docs/floating_nut_hexapod.md: Newton in the pose
 p = [x y z alpha beta gamma] on the compensated lengths with the analytic J_c, stop when
 |e|_inf < tol, then one chord step), with a few dozen numpy calls per Newton step, not hundreds:
 
@@ -15,18 +15,21 @@ p = [x y z alpha beta gamma] on the compensated lengths with the analytic J_c, s
 """
 from __future__ import annotations
 
+import logging
 import math
 
 import numpy as np
 from scipy.linalg.lapack import dgesv, dgetri, dgetrs
 
-from robocal.systems.floating_nut.kinematics import SINGULAR_TOL, FKNotConverged, FKResult, _wrap, log
+from robocal.systems.floating_nut.results import SINGULAR_TOL, FKNotConverged, FKResult, wrap_angle
 
 # rows of the value blocks, each 6 legs: the order lets ac uu - au cu be one product of two slices
 AC, AU, UU, CU, ACU = range(5)
 
+log = logging.getLogger(__name__)
 
-def _rotation_zyx(a, b, g):
+
+def rotation_zyx(a, b, g):
     """R = Rz(g) Ry(b) Rx(a) (9 floats, row-major) and dR/da, dR/db, dR/dg (9 floats each); tuples, so
     that floating_nut_fk_compiled can jit this very function."""
     ca, sa, cb, sb, cg, sg = math.cos(a), math.sin(a), math.cos(b), math.sin(b), math.cos(g), math.sin(g)
@@ -40,7 +43,7 @@ def _rotation_zyx(a, b, g):
             (-r10, -r11, -r12, r00, r01, r02, 0.0, 0.0, 0.0))                         # skew(e_z) R
 
 
-def _rotation_xyz(a, b, g):
+def rotation_xyz(a, b, g):
     """R = Rx(a) Ry(b) Rz(g) (9 floats, row-major) and dR/da, dR/db, dR/dg (9 floats each)."""
     ca, sa, cb, sb, cg, sg = math.cos(a), math.sin(a), math.cos(b), math.sin(b), math.cos(g), math.sin(g)
     r00, r01 = cb * cg, -cb * sg
@@ -52,7 +55,7 @@ def _rotation_xyz(a, b, g):
             (r01, -r00, 0.0, r11, -r10, 0.0, r21, -r20, 0.0))                         # R skew(e_z)
 
 
-ROTATIONS = {"ZYX-fixed": _rotation_zyx, "XYZ-moving": _rotation_xyz}
+ROTATIONS = {"ZYX-fixed": rotation_zyx, "XYZ-moving": rotation_xyz}
 
 
 def _quadratic_forms(b, m, a, c) -> np.ndarray:
@@ -127,7 +130,7 @@ class SinglePoseFK:
         theta = np.arctan2(y, x) - self.phi0                # theta = wrap(phi - phi0), eq. (2')
         th = theta.tolist()
         if max(th) > math.pi or min(th) <= -math.pi:
-            theta = _wrap(theta)
+            theta = wrap_angle(theta)
         return Qm, q, l, x, y, dR, (L - l) - self.gain * theta
 
     def _jacobian(self, Qm, q, l, x, y, dR, full):

@@ -19,8 +19,8 @@ import os
 
 import numpy as np
 
-from robocal.systems.floating_nut.fk import SinglePoseFK, _rotation_xyz, _rotation_zyx
-from robocal.systems.floating_nut.kinematics import SINGULAR_TOL, FKResult
+from robocal.systems.floating_nut.fk import SinglePoseFK, rotation_xyz, rotation_zyx
+from robocal.systems.floating_nut.results import SINGULAR_TOL, FKResult
 
 EULER_CODES = {"ZYX-fixed": 0, "XYZ-moving": 1}
 # kernel status; any failure makes the numpy solver rerun the same iterates and raise its own error
@@ -89,7 +89,7 @@ class CompiledSinglePoseFK(SinglePoseFK):
 
 def _rotation(euler, a, b, g):
     """R (9, row-major) and dR/da, dR/db, dR/dg: the numpy path's own functions, jitted with the kernel."""
-    return _rotation_zyx(a, b, g) if euler == 0 else _rotation_xyz(a, b, g)
+    return rotation_zyx(a, b, g) if euler == 0 else rotation_xyz(a, b, g)
 
 
 def _rotate(R, v, i0):
@@ -295,7 +295,7 @@ def _newton(L, p, cold, consts, home, home_piv, euler, compensate, full, tol, ma
     return OK, iterations, res, n, bound
 
 
-_KERNEL = ("_rotation_zyx", "_rotation_xyz", "_rotation", "_rotate", "_evaluate", "_jacobian", "_regular", "_lu_factor", "_lu_solve",
+_KERNEL = ("rotation_zyx", "rotation_xyz", "_rotation", "_rotate", "_evaluate", "_jacobian", "_regular", "_lu_factor", "_lu_solve",
            "_condition_bound", "_newton")
 _compiled = False
 

@@ -3,7 +3,7 @@
 Each strut i joins a base Hooke joint centred at b_i to a platform Hooke joint centred at m_i.
 The nut is free to roll about the strut, so a platform motion that rolls the rod also screws
 the nut along the screw: the true strut length differs from the motor-encoder length by
-l_a = sigma * lead * theta / (2 pi). See docs/floating_nut_hexapod.md and the seed-002 spec.
+l_a = sigma * lead * theta / (2 pi). See docs/floating_nut_hexapod.md.
 
 Poses are p = [x, y, z, alpha, beta, gamma] (m, rad); the rotation convention is configurable:
   "ZYX-fixed"  R = Rz(gamma) Ry(beta) Rx(alpha)   (default; fixed-axis roll-pitch-yaw)
@@ -239,7 +239,7 @@ class FloatingNutGeometry:
 
 
 def reference_fixture() -> FloatingNutGeometry:
-    """The seed-002 test fixture: radii 0.60 / 0.40 m, home height 0.80 m, lead 10 mm, sigma +1."""
+    """The reference test fixture of docs/floating_nut_hexapod.md: radii 0.60 / 0.40 m, home height 0.80 m, lead 10 mm, sigma +1."""
     deg = np.deg2rad
     return FloatingNutGeometry.from_azimuths(
         0.60, deg([-10, 10, 110, 130, 230, 250]), 0.40, deg([-50, 50, 70, 170, 190, 290]),

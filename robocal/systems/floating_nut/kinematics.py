@@ -1,6 +1,6 @@
 """Closed-form inverse kinematics with nut-rotation compensation, its Jacobian, and Newton FK.
 
-Per strut i, at pose p (spec seed-002 §3, signed atan2 form):
+Per strut i, at pose p (docs/floating_nut_hexapod.md, signed atan2 form):
   u_i   = t + R m_i - b_i,   l_i = |u_i|,   s_i = u_i / l_i           effective length (eq. 1)
   n_b   = a_i x u_i,   n_m = (R c_i) x u_i                          Hooke-plane normals
   phi_i = atan2((n_b x n_m).s_i, n_b.n_m)                           housing-to-rod roll angle
@@ -14,85 +14,21 @@ Everything is vectorised over poses (leading axis N) and legs (6); a single pose
 from __future__ import annotations
 
 import logging
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from robocal.errors import AssemblyError, InputError
+from robocal.errors import InputError
+from robocal.systems.floating_nut.fk_compiled import single_pose_solver
 from robocal.systems.floating_nut.geometry import N_LEGS, FloatingNutGeometry, omega_maps, rotation_matrices
+from robocal.systems.floating_nut.inputs import as_lengths, as_poses, single_pose_inputs
+from robocal.systems.floating_nut.results import (SINGULAR_TOL, TWO_PI, FKNotConverged, FKResult, IKDetails,
+                                                  SingularHookeError, wrap_angle)
+from robocal.systems.floating_nut.vectors import cross, dot, universal_angles
 
 log = logging.getLogger(__name__)
 
-TWO_PI = 2.0 * np.pi
-SINGULAR_TOL = 1e-9          # |axis x s| below this: Hooke joint in gimbal lock, roll undefined
 JACOBIAN_MODES = ("full", "uncompensated", "fd")
-
-
-class SingularHookeError(AssemblyError):
-    """A Hooke joint's fixed axis is parallel to its strut: the nut roll is undefined there."""
-
-    def __init__(self, message: str, sample: int | None = None, leg: int | None = None):
-        self.sample, self.leg = sample, leg
-        super().__init__(message)
-
-
-class FKNotConverged(AssemblyError):
-    """Newton forward kinematics did not reach the length tolerance (unreachable or singular)."""
-
-    def __init__(self, message: str, sample: int | None = None):
-        self.sample = sample
-        super().__init__(message)
-
-
-# ---- small vector helpers on (..., 3) arrays -----------------------------------------------
-_NEXT, _PREV = np.array([1, 2, 0]), np.array([2, 0, 1])
-
-
-def _cross(a, b):
-    if a.size + b.size < 2000:     # small arrays: fewest numpy calls wins
-        return a[..., _NEXT] * b[..., _PREV] - a[..., _PREV] * b[..., _NEXT]
-    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
-    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
-    return np.stack((a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0), axis=-1)
-
-
-def _dot(a, b):
-    return np.einsum("...i,...i->...", a, b)
-
-
-def _wrap(angle):
-    """Wrap to (-pi, pi]."""
-    return -((np.pi - angle) % TWO_PI - np.pi)
-
-
-def _as_poses(poses) -> tuple[np.ndarray, bool]:
-    try:
-        arr = np.asarray(poses, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise InputError(f"poses must be numbers: {exc}", field="pose") from exc
-    single = arr.ndim == 1
-    arr = np.atleast_2d(arr)
-    if arr.ndim != 2 or arr.shape[1] != 6:
-        raise InputError(f"poses must have shape (6,) or (N, 6) [x y z alpha beta gamma], got "
-                         f"{np.shape(poses)}", field="pose")
-    bad = np.flatnonzero(~np.all(np.isfinite(arr), axis=1))
-    if bad.size:
-        raise InputError(f"pose {bad[0]} has non-finite entries", row=int(bad[0]), field="pose")
-    return arr, single
-
-
-def _as_lengths(lengths) -> tuple[np.ndarray, bool]:
-    arr = np.asarray(lengths, dtype=float)
-    single = arr.ndim == 1
-    arr = np.atleast_2d(arr)
-    if arr.ndim != 2 or arr.shape[1] != N_LEGS:
-        raise InputError(f"lengths must have shape (6,) or (N, 6), got {np.shape(lengths)}", field="lengths")
-    bad = np.flatnonzero(~np.all(np.isfinite(arr), axis=1))
-    if bad.size:
-        raise InputError(f"length set {bad[0]} has non-finite entries", row=int(bad[0]), field="lengths")
-    return arr, single
-
 
 @dataclass
 class _PoseTerms:
@@ -108,32 +44,6 @@ class _PoseTerms:
     x: np.ndarray        # nb . nm
     y: np.ndarray        # (nb x nm) . s
     phi: np.ndarray      # atan2(y, x)
-
-
-@dataclass
-class IKDetails:
-    """Everything the compensated IK computes, per pose and leg (N, 6), SI units."""
-    lengths: np.ndarray        # effective lengths l, m
-    theta: np.ndarray          # nut rotation from home, rad
-    additional: np.ndarray     # l_a, m
-    command: np.ndarray        # l_c = l + l_a (or l when uncompensated), m
-    phi: np.ndarray            # dihedral angle, rad
-    hooke: np.ndarray          # (N, 6, 4) Hooke angles q1, q2 (base), q5, q6 (platform), rad
-
-
-@dataclass
-class FKResult:
-    """Forward-kinematics solution.
-
-    pose        (6,) or (N, 6) platform pose [m, rad]
-    iterations  int or (N,) Newton updates taken
-    residual    float or (N,) final |l_c* - l_c(pose)|_inf, m
-    history     max residual over the batch before each update, m
-    """
-    pose: np.ndarray
-    iterations: np.ndarray | int
-    residual: np.ndarray | float
-    history: list[float]
 
 
 class FloatingNutKinematics:
@@ -173,21 +83,21 @@ class FloatingNutKinematics:
         Rt = R.transpose(0, 2, 1)
         rm = self._m @ Rt                                  # (N, 6, 3)
         u = P[:, None, :3] + rm - self._b
-        length = np.sqrt(_dot(u, u))
+        length = np.sqrt(dot(u, u))
         s = u / length[..., None]
         c = self._c @ Rt
-        nb, nm = _cross(self._a, u), _cross(c, u)
+        nb, nm = cross(self._a, u), cross(c, u)
         self._check_singular(nb, nm, length, what)
-        x = _dot(nb, nm)
-        y = _dot(_cross(nb, nm), s)
+        x = dot(nb, nm)
+        y = dot(cross(nb, nm), s)
         return _PoseTerms(R, rm, u, length, s, c, nb, nm, x, y, np.arctan2(y, x))
 
     @staticmethod
     def _check_singular(nb, nm, length, what):
         # |a x s| and |c x s|: both axes are unit, so these are sines of the axis-strut angles
         l2 = length * length
-        sin_b = _dot(nb, nb) / l2        # squared sines
-        sin_m = _dot(nm, nm) / l2
+        sin_b = dot(nb, nb) / l2        # squared sines
+        sin_m = dot(nm, nm) / l2
         tol = SINGULAR_TOL ** 2
         bad = (sin_b < tol) | (sin_m < tol) | ~np.isfinite(sin_b + sin_m)
         if np.any(bad):
@@ -200,15 +110,15 @@ class FloatingNutKinematics:
     # ---- inverse kinematics -------------------------------------------------------------
     def effective_lengths(self, poses) -> np.ndarray:
         """Distance between Hooke centres l_i(p): (N, 6) or (6,), m (eq. 1)."""
-        P, single = _as_poses(poses)
+        P, single = as_poses(poses)
         R = rotation_matrices(P[:, 3:], self.geometry.euler)
         u = P[:, None, :3] + self._m @ R.transpose(0, 2, 1) - self._b
-        out = np.sqrt(_dot(u, u))
+        out = np.sqrt(dot(u, u))
         return out[0] if single else out
 
     def dihedral(self, poses) -> np.ndarray:
         """Signed angle phi_i from plane (a_i, u_i) to plane (R c_i, u_i) about s_i, rad."""
-        P, single = _as_poses(poses)
+        P, single = as_poses(poses)
         phi = self._terms(P).phi
         return phi[0] if single else phi
 
@@ -218,14 +128,14 @@ class FloatingNutKinematics:
         patent_unsigned=True gives the patent's eq. (2), arccos(p) - arccos(p0), without its lost
         direction rule; it has the wrong sign on legs whose home dihedral is negative (comparison only).
         """
-        P, single = _as_poses(poses)
+        P, single = as_poses(poses)
         t = self._terms(P)
         if patent_unsigned:
             x0 = np.cos(self._phi0)
-            cos_p = t.x / np.sqrt(_dot(t.nb, t.nb) * _dot(t.nm, t.nm))
+            cos_p = t.x / np.sqrt(dot(t.nb, t.nb) * dot(t.nm, t.nm))
             theta = np.arccos(np.clip(cos_p, -1, 1)) - np.arccos(np.clip(x0, -1, 1))
         else:
-            theta = _wrap(t.phi - self._phi0)
+            theta = wrap_angle(t.phi - self._phi0)
         return theta[0] if single else theta
 
     def additional_lengths(self, poses) -> np.ndarray:
@@ -238,9 +148,9 @@ class FloatingNutKinematics:
         compensate=False gives the classic 6-UPS lengths l. With return_details an `IKDetails`
         is returned as well (Hooke angles included).
         """
-        P, single = _as_poses(poses)
+        P, single = as_poses(poses)
         t = self._terms(P)
-        theta = _wrap(t.phi - self._phi0)
+        theta = wrap_angle(t.phi - self._phi0)
         additional = self._gain * theta
         command = t.length + additional if compensate else t.length.copy()
         out = command[0] if single else command
@@ -262,11 +172,11 @@ class FloatingNutKinematics:
         """
         r2 = (t.x * t.x + t.y * t.y)[..., None]
         x, y = t.x[..., None], t.y[..., None]
-        G = (x * _cross(t.nm, t.s) - y * t.nm) / r2
-        H = (x * _cross(t.s, t.nb) - y * t.nb) / r2
-        W = _cross(G, self._a) + _cross(H, t.c)              # coefficient of du
-        fw = _cross(t.rm, W) + _cross(t.c, _cross(t.u, H))
-        return t.s, _cross(t.rm, t.s), W, fw
+        G = (x * cross(t.nm, t.s) - y * t.nm) / r2
+        H = (x * cross(t.s, t.nb) - y * t.nb) / r2
+        W = cross(G, self._a) + cross(H, t.c)              # coefficient of du
+        fw = cross(t.rm, W) + cross(t.c, cross(t.u, H))
+        return t.s, cross(t.rm, t.s), W, fw
 
     def _pose_rows(self, gv, gw, P):
         """Rows d(.)/dp (N, 6, 6) from twist gradients: omega = T(angles) @ angle rates."""
@@ -283,7 +193,7 @@ class FloatingNutKinematics:
 
         mode "analytic" or "fd" (central differences, step 1e-6, for checks).
         """
-        P, single = _as_poses(poses)
+        P, single = as_poses(poses)
         if mode == "fd":
             J = self._fd_jacobian(P, compensate)
         elif mode == "analytic":
@@ -294,7 +204,7 @@ class FloatingNutKinematics:
 
     def length_and_roll_jacobians(self, poses) -> tuple[np.ndarray, np.ndarray]:
         """J_l = dl/dp and J_theta = dtheta/dp separately, each (N, 6, 6) or (6, 6)."""
-        P, single = _as_poses(poses)
+        P, single = as_poses(poses)
         dl, dphi = self._rates(self._terms(P), P)
         return (dl[0], dphi[0]) if single else (dl, dphi)
 
@@ -319,7 +229,7 @@ class FloatingNutKinematics:
         is included. Components along the axis itself are zero; project on `tangent_basis` for the
         two angles of each axis. Returns (base, plat), each (N, 6, 3) or (6, 3), m/rad.
         """
-        P, single = _as_poses(poses)
+        P, single = as_poses(poses)
         g = self.geometry
         base, plat = self._dphi_daxes(P)
         base0, plat0 = self._dphi_daxes(g.p0[None])
@@ -330,32 +240,32 @@ class FloatingNutKinematics:
     def _dphi_daxes(self, P):
         t = self._terms(P)
         eye = np.eye(3)
-        da = _cross(eye[:, None], self._a)                    # (3, 6, 3): d a_i for delta = e_j
-        dc_plat = _cross(eye[:, None], self._c)               # (3, 6, 3), in {O_m}
+        da = cross(eye[:, None], self._a)                    # (3, 6, 3): d a_i for delta = e_j
+        dc_plat = cross(eye[:, None], self._c)               # (3, 6, 3), in {O_m}
         dc = dc_plat[None] @ t.R.transpose(0, 2, 1)[:, None]  # (N, 3, 6, 3) in {O_b}
         u = t.u[:, None]
-        dnb = _cross(da[None], u)
-        dnm = _cross(dc, u)
-        A = _cross(t.nm, t.s)[:, None]
-        B = _cross(t.s, t.nb)[:, None]
+        dnb = cross(da[None], u)
+        dnm = cross(dc, u)
+        A = cross(t.nm, t.s)[:, None]
+        B = cross(t.s, t.nb)[:, None]
         x, y = t.x[:, None], t.y[:, None]
         r2 = x * x + y * y
-        d_base = (x * _dot(dnb, A) - y * _dot(dnb, t.nm[:, None])) / r2
-        d_plat = (x * _dot(dnm, B) - y * _dot(t.nb[:, None], dnm)) / r2
+        d_base = (x * dot(dnb, A) - y * dot(dnb, t.nm[:, None])) / r2
+        d_plat = (x * dot(dnm, B) - y * dot(t.nb[:, None], dnm)) / r2
         return d_base.transpose(0, 2, 1), d_plat.transpose(0, 2, 1)
 
     # ---- Hooke joint angles -----------------------------------------------------------------
     def hooke_angles(self, poses) -> np.ndarray:
         """Hooke angles (N, 6, 4) or (6, 4), rad: q1 about a_i, q2 about the housing axis (base
         joint), q5 about the rod axis, q6 about c_i (platform joint, measured platform -> rod)."""
-        P, single = _as_poses(poses)
+        P, single = as_poses(poses)
         out = self._hooke_from_terms(self._terms(P))
         return out[0] if single else out
 
     def _hooke_from_terms(self, t: _PoseTerms) -> np.ndarray:
         s_plat = np.einsum("nji,nlj->nli", t.R, t.s)        # R^T s
-        q1, q2 = _universal_angles(self._a, self._s0, t.s)
-        q6, q5 = _universal_angles(self._c, self._s0_plat, s_plat)
+        q1, q2 = universal_angles(self._a, self._s0, t.s)
+        q6, q5 = universal_angles(self._c, self._s0_plat, s_plat)
         return np.stack([q1, q2, q5, q6], axis=-1)
 
     # ---- forward kinematics -------------------------------------------------------------------
@@ -380,12 +290,12 @@ class FloatingNutKinematics:
             raise InputError(f"max_iter must be an integer >= 0, got {max_iter!r}", field="max_iter")
         if not tol > 0.0:
             raise InputError(f"tol must be a positive number of metres, got {tol!r}", field="tol")
-        lean = None if jacobian == "fd" else _single_pose_inputs(lengths, p_init)
+        lean = None if jacobian == "fd" else single_pose_inputs(lengths, p_init)
         if lean is not None:
             return self._single_pose_solver().solve(*lean, compensate, jacobian, tol, max_iter, warn_condition)
-        L, single = _as_lengths(lengths)
+        L, single = as_lengths(lengths)
         P = np.array(np.broadcast_to(self.geometry.p0 if p_init is None else p_init, L.shape), dtype=float)
-        _as_poses(P)
+        as_poses(P)
         n = L.shape[0]
         iterations = np.zeros(n, dtype=int)
         residual = np.full(n, np.inf)
@@ -398,7 +308,7 @@ class FloatingNutKinematics:
             t = self._terms(Pa, what="FK iterate of sample")
             model = t.length
             if compensate:
-                model = model + self._gain * _wrap(t.phi - self._phi0)
+                model = model + self._gain * wrap_angle(t.phi - self._phi0)
             err = L[active] - model
             res = np.max(np.abs(err), axis=1)
             residual[active] = res
@@ -443,7 +353,6 @@ class FloatingNutKinematics:
     def _single_pose_solver(self):
         """The lean single-pose FK of this geometry (numba or numpy), built on first use."""
         if self._single is None:
-            from robocal.systems.floating_nut.fk_compiled import single_pose_solver   # imports this module: deferred
             self._single = single_pose_solver(self, self._use_numba)
         return self._single
 
@@ -474,46 +383,7 @@ class FloatingNutKinematics:
         return psi0 + (np.asarray(lengths, dtype=float) - self._l0) * TWO_PI * g.gear_ratio / g.lead
 
 
-def _single_pose_inputs(lengths, p_init):
-    """(lengths (6,), p_init (6,) or None) as floats when both are one finite pose, else None (the
-    batch path then handles them, and reports bad input)."""
-    L = np.asarray(lengths, dtype=float)
-    if L.shape != (N_LEGS,) or not math.isfinite(sum(L.tolist())):
-        return None
-    if p_init is None:
-        return L, None
-    p = np.asarray(p_init, dtype=float)
-    if p.shape != (6,) or not math.isfinite(sum(p.tolist())):
-        return None
-    return L, p.tolist()
-
-
 def _subset(t: _PoseTerms, mask) -> _PoseTerms:
     return _PoseTerms(*(getattr(t, k)[mask] for k in t.__dataclass_fields__))
 
 
-def _unit(v):
-    return v / np.sqrt(_dot(v, v))[..., None]
-
-
-def _signed_angle(u, v, k):
-    return np.arctan2(_dot(_cross(u, v), k), _dot(u, v))
-
-
-def _rodrigues(k, q, v):
-    cq, sq = np.cos(q)[..., None], np.sin(q)[..., None]
-    return v * cq + _cross(k, v) * sq + k * _dot(k, v)[..., None] * (1 - cq)
-
-
-def _universal_angles(axis, s_home, s):
-    """Angles of a Hooke joint with fixed axis `axis` (6, 3) carrying a strut from s_home to s.
-
-    First angle about the fixed axis, second about the moving cross axis (spec seed-002 §3).
-    """
-    a = np.broadcast_to(axis, s.shape)
-    cross_home = _unit(_cross(axis, s_home))
-    cross_now = _unit(_cross(a, s))
-    q_first = _signed_angle(np.broadcast_to(cross_home, s.shape), cross_now, a)
-    s_turned = _rodrigues(a, q_first, np.broadcast_to(s_home, s.shape))
-    q_second = _signed_angle(s_turned, s, cross_now)
-    return q_first, q_second
