@@ -1,6 +1,7 @@
 """The path generator (spec §4, block 400): one call per control tick (typically 4 ms).
 
-tick(wrench): 410/420 eps = f_des - u . F[:3] at s_des; 460/470 projected limits at s_des;
+tick(wrench): the force optionally low-passed (MotionParams.force_filter_hz, force_filter.py);
+410/420 eps = f_des - u . F[:3] at s_des; 460/470 projected limits at s_des;
 430/440 limited integral regulator; 450/500 q_des = g(s) (MOVEJF) or IK(f(s)) warm-started from
 the previous setpoint (MOVELF). The wrench is the robot's force on its environment (world axes).
 """
@@ -12,6 +13,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..errors import InputError
+from .force_filter import ForceFilter
 from .instructions import MotionInstruction
 from .inverse_kinematics import solve_ik
 from .limits import project_limits
@@ -20,7 +22,8 @@ from .regulator import TangentialForceRegulator
 
 @dataclass
 class Setpoint:
-    """One tick's output: q_des (nq,), s, sd 1/s, sdd 1/s^2, eps N, and the limits used."""
+    """One tick's output: q_des (nq,), s, sd 1/s, sdd 1/s^2, eps N, the limits used, and force N,
+    the tangential force the regulator acted on (after the filter)."""
 
     q_des: np.ndarray
     s: float
@@ -29,6 +32,7 @@ class Setpoint:
     eps: float
     sd_max: float
     sdd_max: float
+    force: float = 0.0
 
 
 class PathGenerator:
@@ -42,6 +46,7 @@ class PathGenerator:
         self.regulator = TangentialForceRegulator(p.gain if p.gain is not None else 1.0, period,
                                                   braking=p.braking and not p.blend)
         self.q_des = instruction.q_start.copy()
+        self.force_filter = ForceFilter(p.force_filter_hz, period) if p.force_filter_hz is not None else None
 
     @property
     def s(self) -> float:
@@ -67,10 +72,13 @@ class PathGenerator:
         force = np.asarray(wrench, float)[:3]
         if not np.all(np.isfinite(force)):
             raise InputError("external force signal is not finite", field="wrench")
+        if self.force_filter is not None:
+            force = self.force_filter.push(force)
         s = self.regulator.state.s
         _, df, ddf = ins.path.derivatives(s)
         norm_df = float(np.linalg.norm(df))
-        eps = ins.force - float(df @ force) / norm_df
+        tangential = float(df @ force) / norm_df
+        eps = ins.force - tangential
         sd_max, sdd_max = self.limits(s)
         gain = p.admittance / norm_df if p.admittance is not None else p.gain
         st = self.regulator.step(eps, sd_max, sdd_max, gain)
@@ -79,4 +87,4 @@ class PathGenerator:
         else:
             self.q_des = solve_ik(self.model, self.data, ins.frame_id, ins.path.pose(st.s), self.q_des,
                                   self.ik_tolerance)
-        return Setpoint(self.q_des.copy(), st.s, st.sd, st.sdd, eps, sd_max, sdd_max)
+        return Setpoint(self.q_des.copy(), st.s, st.sd, st.sdd, eps, sd_max, sdd_max, tangential)

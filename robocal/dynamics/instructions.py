@@ -26,7 +26,9 @@ class MotionParams:
     """v_max m/s and a_max m/s^2 on the TCP translation; c in (0, 1) (Eq. 5); admittance m/(N s)
     sets the regulator gain K = admittance/|f'| (spec §13.14), or give `gain` K in 1/(N s) directly;
     blend: the motion continues into the next one (no braking at s = 1); joint limits optional
-    (rad/s, rad/s^2 per velocity coordinate)."""
+    (rad/s, rad/s^2 per velocity coordinate); force_filter_hz: cut-off of the second-order
+    low-pass on the force estimate (None: the raw estimate, as in the patent). Choose the
+    admittance and the filter together with `force_loop.admittance_for_margins` (docs/dynamics.md)."""
 
     v_max: float
     a_max: float
@@ -37,6 +39,7 @@ class MotionParams:
     braking: bool = False
     qd_max: np.ndarray | None = None
     qdd_max: np.ndarray | None = None
+    force_filter_hz: float | None = None
 
     def validate(self) -> None:
         for name in ("v_max", "a_max"):
@@ -49,6 +52,8 @@ class MotionParams:
         k = self.admittance if self.gain is None else self.gain
         if not (np.isfinite(k) and k > 0):
             raise InputError(f"regulator admittance/gain must be > 0, got {k}", field="admittance")
+        if self.force_filter_hz is not None and not (np.isfinite(self.force_filter_hz) and self.force_filter_hz > 0):
+            raise InputError(f"force_filter_hz must be > 0, got {self.force_filter_hz}", field="force_filter_hz")
         if (self.qd_max is None) != (self.qdd_max is None):
             raise InputError("give both joint velocity and acceleration limits, or neither", field="qd_max")
 
