@@ -183,7 +183,7 @@ def closed_loop_matrix(loop: TangentLoop, stiffness: float, admittance: float,
 
 def _grid(loop: TangentLoop, points: int) -> np.ndarray:
     nyquist = 0.5 / loop.period
-    return np.geomspace(1e-3 * nyquist, nyquist * (1 - 1e-9), points)
+    return np.geomspace(1e-5 * nyquist, nyquist * (1 - 1e-9), points)
 
 
 def _margins_of(f: np.ndarray, L: np.ndarray) -> tuple[float, float, float, float]:
