@@ -3,7 +3,9 @@
 tick(wrench): the force optionally low-passed (MotionParams.force_filter_hz, force_filter.py);
 410/420 eps = f_des - u . F[:3] at s_des; 460/470 projected limits at s_des;
 430/440 limited integral regulator; 450/500 q_des = g(s) (MOVEJF) or IK(f(s)) warm-started from
-the previous setpoint (MOVELF). The wrench is the robot's force on its environment (world axes).
+the previous setpoint (MOVELF and other Cartesian paths). The limits include, when given, joint
+velocity/acceleration limits (projected through h(s) = IK(f(s)) on Cartesian paths,
+joint_projection.py) and orientation-rate limits. The wrench is the robot's force on its environment (world axes).
 """
 from __future__ import annotations
 
@@ -16,6 +18,7 @@ from ..errors import InputError
 from .force_filter import ForceFilter
 from .instructions import MotionInstruction
 from .inverse_kinematics import solve_ik
+from .joint_projection import check_position_limits, joint_derivatives
 from .limits import project_limits
 from .regulator import TangentialForceRegulator
 
@@ -58,13 +61,22 @@ class PathGenerator:
         return st.s >= 1.0 and st.sd == 0.0
 
     def limits(self, s: float) -> tuple[float, float]:
-        """Projected (sd_max, sdd_max) at s."""
+        """Projected (sd_max, sdd_max) at s (self.q_des is the configuration at s)."""
         ins, p = self.instruction, self.instruction.params
         _, df, ddf = ins.path.derivatives(s)
-        if p.qd_max is not None and ins.kind == "joint":
-            _, dh, ddh = ins.path.joint_derivatives(s)
-            return project_limits(df, ddf, p.v_max, p.a_max, p.c, dh, ddh, p.qd_max, p.qdd_max)
-        return project_limits(df, ddf, p.v_max, p.a_max, p.c)
+        extra = {}
+        cartesian = ins.kind != "joint"
+        if cartesian and p.w_max is not None:
+            dw, ddw = ins.path.angular_derivatives(s)
+            extra.update(dw=dw, ddw=ddw, w_max=p.w_max, dw_max=p.dw_max)
+        if p.qd_max is not None:
+            if cartesian:
+                dw, ddw = ins.path.angular_derivatives(s)
+                dh, ddh = joint_derivatives(self.model, self.data, ins.frame_id, self.q_des, df, ddf, dw, ddw)
+            else:
+                _, dh, ddh = ins.path.joint_derivatives(s)
+            extra.update(dh=dh, ddh=ddh, qd_max=p.qd_max, qdd_max=p.qdd_max)
+        return project_limits(df, ddf, p.v_max, p.a_max, p.c, **extra)
 
     def tick(self, wrench: np.ndarray) -> Setpoint:
         """Advance one period given the latest external wrench (6,) or force (3,) N."""
@@ -87,4 +99,5 @@ class PathGenerator:
         else:
             self.q_des = solve_ik(self.model, self.data, ins.frame_id, ins.path.pose(st.s), self.q_des,
                                   self.ik_tolerance)
+            check_position_limits(self.model, self.q_des, st.s)   # between the validated samples
         return Setpoint(self.q_des.copy(), st.s, st.sd, st.sdd, eps, sd_max, sdd_max, tangential)
