@@ -1,24 +1,25 @@
 """Discrete-time model of the tangential-force loop in contact, and its stability margins.
 
-The loop closed by `PathGenerator` against a stiff contact, linearised along the path tangent u
-(docs/dynamics.md, "Stability of the force loop"):
+The loop closed by `PathGenerator` against a contact of stiffness k_e, linearised at rest
+(docs/dynamics.md, "Stability of the force loop"); r is the setpoint along the path tangent u:
 
 * regulator, once per period T:  r_k+1 = r_k + T a (f_des - y_k)      (a = admittance, m/(N s))
-* servo + contact, between ticks: the setpoint ramps from r_k-1 to r_k (the drive interpolates,
-  with velocity feed-forward), the PID acts on the tool's effective mass m along u, the contact is
-  a spring k_e and the linearised joint friction a damper c:
-      m x'' = kp (r - x) + ki int(r - x) + kd (r' - x') - k_e x - c x'
-* estimator: the current-based force with central differences is one tick late and subtracts the
-  model's inertia and friction at the differenced acceleration and velocity, so
-      F_hat_k = servo force at t_k-1 - m (x_k - 2 x_k-1 + x_k-2)/T^2 - c (x_k - x_k-2)/(2 T)
-  (equal to the contact force when the motion is slow, wrong by m (a - a_hat) when it is not);
+* servo + contact, between ticks: the joint setpoints r J^+ [u; 0] ramp from r_k-1 to r_k (the
+  drive interpolates, with velocity feed-forward); per-joint PID on the joint inertia M, friction
+  linearised at rest (a damper C), the contact a spring k_e (u^T J)^T (u^T J):
+      M x'' = Kp (dq r - x) + Ki int(dq r - x) + Kd (dq r' - x') - k_e J_u^T J_u x - C x'
+* estimator: current-based with central differences, so one tick late, and subtracting the
+  model's inertia and friction at the differenced acceleration and velocity:
+      F_hat_k = dq^T [servo torque at t_k-1 - M (x_k - 2 x_k-1 + x_k-2)/T^2 - C (x_k - x_k-2)/(2 T)]
+  (the contact force when the motion is slow, wrong by about m_eff (a - a_hat) when it is not);
 * an optional low-pass filter H(z) on F_hat (`ForceFilter`), y = H F_hat.
 
 The open loop is L(z) = T a/(z - 1) H(z) P(z), P the setpoint-to-estimate response of the
 servo-contact-estimator chain, built exactly (matrix exponential over one period) from the per-tick
 linear map. `margins` gives the gain and phase margins and whether the closed loop is stable
 (eigenvalues of the closed-loop map); `admittance_for_margins` picks the largest admittance that
-keeps given margins for every contact stiffness up to a maximum.
+keeps given margins over a range of contact stiffness. Gravity stiffness and Coriolis terms are
+left out (at rest they are small against the servo gains); the current loop is taken as ideal.
 """
 from __future__ import annotations
 
@@ -73,7 +74,8 @@ class TangentLoop:
 
 @dataclass(frozen=True)
 class Margins:
-    """gain_margin (factor; inf when the phase never reaches -180 deg), phase_margin deg,
+    """gain_margin (factor; inf when the phase never reaches -180 deg), phase_margin deg (nan
+    when |L| > 1 up to Nyquist),
     crossover_hz (|L| = 1), phase_crossover_hz (phase -180 deg: the frequency an instability
     oscillates at), stable (closed-loop eigenvalues inside the unit circle), spectral_radius."""
 
@@ -190,7 +192,8 @@ def _margins_of(f: np.ndarray, L: np.ndarray) -> tuple[float, float, float, floa
     """(gain margin, phase margin deg, crossover Hz, phase crossover Hz) of a sampled open loop."""
     mag, phase = np.abs(L), np.unwrap(np.angle(L))
     cross = np.nonzero((mag[:-1] >= 1.0) & (mag[1:] < 1.0))[0]
-    pm, fc = np.inf, 0.0
+    # no crossing: |L| < 1 everywhere on the grid (margin unbounded) or > 1 up to Nyquist (undefined)
+    pm, fc = (np.inf, 0.0) if mag[-1] < 1.0 else (np.nan, float(f[-1]))
     if cross.size:
         i = cross[-1]
         t = -np.log(mag[i]) / (np.log(mag[i + 1]) - np.log(mag[i]))
