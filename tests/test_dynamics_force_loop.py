@@ -33,8 +33,10 @@ def ur5():
     return robot, d.oMf[robot.frame_id("tool0")].copy()
 
 
-def test_plant_model_matches_simulated_setpoint_step(ur5):
-    """A 10 um setpoint step along u, tool touching a wall: the estimate per tick, sim vs model.
+@pytest.mark.parametrize("current_bandwidth", [None, 2 * np.pi * 150.0])
+def test_plant_model_matches_simulated_setpoint_step(ur5, current_bandwidth):
+    """A 10 um setpoint step along u, tool touching a wall: the estimate per tick, sim vs model,
+    with an ideal and with a 150 Hz first-order current loop.
 
     The simulator integrates with semi-implicit Euler, first order in its step: the first tick's
     estimate is 35 % off with 4 substeps and converges as 1/substeps (measured 17, 8, 4, 2 % at 8,
@@ -44,10 +46,10 @@ def test_plant_model_matches_simulated_setpoint_step(ur5):
     none = FrictionModel(np.zeros(6))
     gains = servo_gains(m, Q0)
     sim = RobotSimulator(m, fid, Q0, ACTUATOR, none, Environment(Wall(start.translation, U, K_WALL)), gains,
-                         TS, substeps=64)
+                         TS, substeps=64, current_bandwidth=current_bandwidth)
     est = ExternalForceEstimator(m, fid, ACTUATOR, none)
     diff = TickDifferentiator(TS, "central")
-    A, B, C, D = plant_map(tangent_loop(m, Q0, fid, gains, U, none, TS), K_WALL)
+    A, B, C, D = plant_map(tangent_loop(m, Q0, fid, gains, U, none, TS, current_bandwidth), K_WALL)
     p, q, last, d = np.zeros(A.shape[0]), Q0.copy(), None, m.createData()
     sim_out, model_out = [], []
     for k in range(14):

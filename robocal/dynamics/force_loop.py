@@ -42,7 +42,8 @@ class TangentLoop:
     mass (n, n) kg m^2 (joint-space inertia); kp N m/rad, ki N m/(rad s), kd N m s/rad (n,) the
     per-joint PID; friction (n,) N m s/rad, the friction slope at rest; direction (n,) rad/m, the
     joint motion per metre along the tangent with the orientation held (J^+ [u; 0]); jacobian_u
-    (n,) m/rad, the tangent row u^T J (the contact spring acts through it); period s."""
+    (n,) m/rad, the tangent row u^T J (the contact spring acts through it); period s;
+    current_bandwidth rad/s of a first-order current loop (None: ideal, the torque is the PID's)."""
 
     mass: np.ndarray
     kp: np.ndarray
@@ -52,12 +53,14 @@ class TangentLoop:
     direction: np.ndarray
     jacobian_u: np.ndarray
     period: float = 0.004
+    current_bandwidth: float | None = None
 
     def __post_init__(self):
         n = self.direction.size
         shapes = [np.shape(self.mass) == (n, n)] + [np.shape(v) == (n,) for v in
                                                     (self.kp, self.ki, self.kd, self.friction, self.jacobian_u)]
-        if not all(shapes) or not self.period > 0 or np.any(np.asarray(self.kp) <= 0):
+        lag_ok = self.current_bandwidth is None or self.current_bandwidth > 0
+        if not all(shapes) or not self.period > 0 or np.any(np.asarray(self.kp) <= 0) or not lag_ok:
             raise InputError("tangent loop: mass (n, n), gains, friction, direction and tangent row (n,), "
                              "kp > 0 and period > 0 required", field="mass")
 
@@ -88,7 +91,7 @@ class Margins:
 
 
 def tangent_loop(model: pin.Model, q: np.ndarray, frame_id: int, gains, tangent: np.ndarray,
-                 friction=None, period: float = 0.004) -> TangentLoop:
+                 friction=None, period: float = 0.004, current_bandwidth: float | None = None) -> TangentLoop:
     """Linearise the servoed arm at configuration q (at rest) for a path tangent (3,) at the tool.
 
     gains (kp, ki, kd) per joint as the simulator's servos use them; friction a FrictionModel or
@@ -104,46 +107,66 @@ def tangent_loop(model: pin.Model, q: np.ndarray, frame_id: int, gains, tangent:
     if friction is not None:   # d tau_f/dv at v = 0: Coulomb and Stribeck through the tanh, plus viscous
         slope = (friction.coulomb + friction.stribeck) / friction.smoothing + friction.viscous
     kp, ki, kd = (np.asarray(g, float).copy() for g in gains)
-    return TangentLoop(mass, kp, ki, kd, slope, np.linalg.pinv(J) @ np.r_[u, 0.0, 0.0, 0.0], J[:3].T @ u, period)
+    return TangentLoop(mass, kp, ki, kd, slope, np.linalg.pinv(J) @ np.r_[u, 0.0, 0.0, 0.0], J[:3].T @ u, period,
+                       current_bandwidth)
 
 
 def plant_map(loop: TangentLoop, stiffness: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
     """(A, B, C, D) of one tick: input the new setpoint r_k (m along u), output F_hat_k (N).
 
-    State after tick k: joint deviations x_k, their rates, the servo integrals (t_k); r_k, r_k-1;
-    x_k-1 (for the central differences). Between ticks the setpoint moves at the constant rate
+    State after tick k: joint deviations x_k, their rates, the servo integrals and, with a lagging
+    current loop, the motor torques (t_k); r_k, r_k-1; x_k-1 (for the central differences). Between ticks the setpoint moves at the constant rate
     (r_k - r_k-1)/T; the exact transition over T is a matrix exponential."""
     n, T = loop.direction.size, loop.period
     dq, Minv = loop.direction, np.linalg.inv(loop.mass)
     contact = float(stiffness) * np.outer(loop.jacobian_u, loop.jacobian_u)
-    Ac = np.zeros((3 * n + 2, 3 * n + 2))
+    lag = loop.current_bandwidth is not None
+    nt = n if lag else 0                          # motor torques, when the current loop lags
+    # continuous state [x, x', ie, tau (lag only), r, r']; the PID torque is linear in it
+    size = 3 * n + nt + 2
+    ir = 3 * n + nt
+    pid = np.zeros((n, size))
+    pid[:, :n] = -np.diag(loop.kp)
+    pid[:, n:2 * n] = -np.diag(loop.kd)
+    pid[:, 2 * n:3 * n] = np.diag(loop.ki)
+    pid[:, ir] = loop.kp * dq
+    pid[:, ir + 1] = loop.kd * dq
+    torque = np.zeros((n, size))                  # the torque the motors apply
+    if lag:
+        torque[:, 3 * n:4 * n] = np.eye(n)
+    else:
+        torque = pid
+    Ac = np.zeros((size, size))
     Ac[:n, n:2 * n] = np.eye(n)
-    Ac[n:2 * n, :n] = -Minv @ (np.diag(loop.kp) + contact)
-    Ac[n:2 * n, n:2 * n] = -Minv @ np.diag(loop.kd + loop.friction)
-    Ac[n:2 * n, 2 * n:3 * n] = Minv @ np.diag(loop.ki)
-    Ac[n:2 * n, 3 * n] = Minv @ (loop.kp * dq)
-    Ac[n:2 * n, 3 * n + 1] = Minv @ (loop.kd * dq)
+    Ac[n:2 * n] = Minv @ torque
+    Ac[n:2 * n, :n] -= Minv @ contact
+    Ac[n:2 * n, n:2 * n] -= Minv @ np.diag(loop.friction)
     Ac[2 * n:3 * n, :n] = -np.eye(n)
-    Ac[2 * n:3 * n, 3 * n] = dq
-    Ac[3 * n, 3 * n + 1] = 1.0
+    Ac[2 * n:3 * n, ir] = dq
+    if lag:
+        Ac[3 * n:4 * n] = loop.current_bandwidth * (pid - torque)
+    Ac[ir, ir + 1] = 1.0
     E = expm(Ac * T)
+    # discrete state after tick k: [x, x', ie, tau] at t_k, r_k, r_k-1, x_k-1
 
     def step(state, r_new):
-        x, xd, ie = state[:n], state[n:2 * n], state[2 * n:3 * n]
-        r, r_old, x_old = state[3 * n], state[3 * n + 1], state[3 * n + 2:]
+        w_old = state[:ir]
+        r, r_old, x_old = state[ir], state[ir + 1], state[ir + 2:]
+        x = w_old[:n]
         rate = (r_new - r) / T
-        w = E @ np.r_[x, xd, ie, r, rate]
-        servo = loop.kp * (dq * r - x) + loop.ki * ie + loop.kd * (dq * (r - r_old) / T - xd)
+        w = E @ np.r_[w_old, r, rate]
+        # the torque sampled at t_k-1 (the measured current), with that tick's setpoint rate
+        sampled = torque @ np.r_[w_old, r, (r - r_old) / T]
         acc_hat = (w[:n] - 2 * x + x_old) / T**2
         vel_hat = (w[:n] - x_old) / (2 * T)
-        out = dq @ (servo - loop.mass @ acc_hat - loop.friction * vel_hat)   # u^T J^-T (torque)
-        return np.r_[w[:3 * n], r_new, r, x], out
+        out = dq @ (sampled - loop.mass @ acc_hat - loop.friction * vel_hat)   # u^T J^-T (torque)
+        return np.r_[w[:ir], r_new, r, x], out
 
-    size = 4 * n + 2
-    cols = [step(e, 0.0) for e in np.eye(size)]
+    total = ir + 2 + n
+    cols = [step(e, 0.0) for e in np.eye(total)]
     A = np.column_stack([c[0] for c in cols])
     C = np.array([c[1] for c in cols])
-    B, D = step(np.zeros(size), 1.0)
+    B, D = step(np.zeros(total), 1.0)
     return A, B, C, float(D)
 
 
@@ -172,7 +195,9 @@ def closed_loop_matrix(loop: TangentLoop, stiffness: float, admittance: float,
         Af, Bf, Cf, Df = np.zeros((0, 0)), np.zeros(0), np.zeros(0), 1.0
     nf, T, a = Af.shape[0], loop.period, admittance
     # state [plant (holds r_k), filter, y_k]: y_k is the filtered estimate the next tick reads
-    npl, npl_r = A.shape[0], 3 * loop.direction.size
+    n_joints = loop.direction.size
+    npl = A.shape[0]
+    npl_r = 3 * n_joints + (n_joints if loop.current_bandwidth is not None else 0)   # where r_k sits
     n = npl + nf + 1
 
     def step(s):
