@@ -139,7 +139,8 @@ rows = [
     ("R4: viscous b = 200, 20 N, K L = 0.0025: F = 6.667 N", f"{viscous[0.0025][-1]:.3f} N", "force read one tick late"),
     ("R4: K L = 0.004: F = 8.889 N", f"{viscous[0.004][-1]:.3f} N", "same"),
     ("R4: K L = 0.05 (g = 10): limit cycle 18.0..18.8 N",
-     f"{viscous[0.05].min():.1f}..{viscous[0.05].max():.1f} N", "last 100 of 400 ticks; force b (x_k - x_k-1)/T read one tick late"),
+     f"{viscous[0.05].min():.1f}..{viscous[0.05].max():.1f} N", "last 100 of 400 ticks; force b (x_k - x_k-1)/T read one tick late; same width b a_max T = 0.8 N as the "
+     "spec, offset by half a step (the spec does not say when in the tick the speed is sampled)"),
     ("L1: worst speed/v_max or acceleration/a_max on 40,000 circles: 0.999998", f"{worst:.9f}",
      "random circle, s, v_max, a_max, c; s-rate and s-acceleration at the projected bounds (equality up to rounding)"),
     ("Force loop stable for g < 2 (ideal servo and estimate)",
