@@ -2,8 +2,9 @@
 
 An instruction carries the path shape, the tangential-force setpoint f_des (N, the force the tool
 should exert along the path) and the motion parameters. Everything is checked before execution:
-finite f_des, v_max and a_max > 0, c in (0, 1), a non-degenerate path and, for MOVELF, an inverse
-kinematics solution all along the line (so the setpoints cannot fail mid-motion).
+finite f_des, v_max and a_max > 0, c in (0, 1), a non-degenerate path and, for Cartesian paths
+(MOVELF, `movecf`), an inverse kinematics solution within the joint position limits all along the
+path (so the setpoints cannot fail mid-motion; a path past a joint stop is refused, naming it).
 """
 from __future__ import annotations
 
@@ -15,8 +16,9 @@ import pinocchio as pin
 
 from robocal.errors import InputError
 from robocal.dynamics.inverse_kinematics import IKFailure, solve_ik
+from robocal.dynamics.joint_projection import check_position_limits
 from robocal.dynamics.limits import check_c
-from robocal.dynamics.path import JointPath, LinearPath
+from robocal.dynamics.path import CartesianPath, JointPath, LinearPath
 
 log = logging.getLogger(__name__)
 
@@ -26,7 +28,10 @@ class MotionParams:
     """v_max m/s and a_max m/s^2 on the TCP translation; c in (0, 1) (Eq. 5); admittance m/(N s)
     sets the regulator gain K = admittance/|f'| (spec §13.14), or give `gain` K in 1/(N s) directly;
     blend: the motion continues into the next one (no braking at s = 1); joint limits optional
-    (rad/s, rad/s^2 per velocity coordinate)."""
+    (rad/s, rad/s^2 per velocity coordinate); force_filter_hz: cut-off of the second-order
+    low-pass on the force estimate (None: the raw estimate, as in the patent); w_max rad/s and
+    dw_max rad/s^2: optional limits on the tool's orientation rate along Cartesian paths. Choose the
+    admittance and the filter together with `force_loop.admittance_for_margins` (docs/dynamics.md)."""
 
     v_max: float
     a_max: float
@@ -37,6 +42,9 @@ class MotionParams:
     braking: bool = False
     qd_max: np.ndarray | None = None
     qdd_max: np.ndarray | None = None
+    force_filter_hz: float | None = None
+    w_max: float | None = None
+    dw_max: float | None = None
 
     def validate(self) -> None:
         for name in ("v_max", "a_max"):
@@ -49,6 +57,12 @@ class MotionParams:
         k = self.admittance if self.gain is None else self.gain
         if not (np.isfinite(k) and k > 0):
             raise InputError(f"regulator admittance/gain must be > 0, got {k}", field="admittance")
+        if self.force_filter_hz is not None and not (np.isfinite(self.force_filter_hz) and self.force_filter_hz > 0):
+            raise InputError(f"force_filter_hz must be > 0, got {self.force_filter_hz}", field="force_filter_hz")
+        if (self.w_max is None) != (self.dw_max is None):
+            raise InputError("give both orientation-rate limits w_max and dw_max, or neither", field="w_max")
+        if self.w_max is not None and not (self.w_max > 0 and self.dw_max > 0):
+            raise InputError(f"w_max and dw_max must be > 0, got {self.w_max}, {self.dw_max}", field="w_max")
         if (self.qd_max is None) != (self.qdd_max is None):
             raise InputError("give both joint velocity and acceleration limits, or neither", field="qd_max")
 
@@ -105,10 +119,35 @@ def movelf(model: pin.Model, frame_id: int, q_start: np.ndarray, target: pin.SE3
         else None
     if path is None:
         raise InputError("degenerate straight line: target position equals the start position", field="position")
+    check_reachable(model, frame_id, path, q_start, ik_tolerance, check_points)
+    return MotionInstruction("linear", path, f, params, frame_id, np.array(q_start, float))
+
+
+def movecf(model: pin.Model, frame_id: int, q_start: np.ndarray, path: CartesianPath, params: MotionParams,
+           force: float, ik_tolerance: float = 1e-10, check_points: int = 41) -> MotionInstruction:
+    """Motion of the tool along any Cartesian path (arc, spline, blended polyline) that starts at
+    the tool's current position, with tangential force `force` N (spec §4-A: any differentiable f)."""
+    params.validate()
+    f = _check_force(force)
+    data = model.createData()
+    pin.framesForwardKinematics(model, data, np.asarray(q_start, float))
+    gap = np.linalg.norm(path.derivatives(0.0)[0] - data.oMf[frame_id].translation)
+    if gap > 1e-6:
+        raise InputError(f"the path starts {gap:.3g} m away from the tool", field="path")
+    path.check_regular()
+    check_reachable(model, frame_id, path, q_start, ik_tolerance, check_points)
+    return MotionInstruction("cartesian", path, f, params, frame_id, np.array(q_start, float))
+
+
+def check_reachable(model: pin.Model, frame_id: int, path, q_start: np.ndarray, ik_tolerance: float,
+                    check_points: int) -> None:
+    """Follow the path by warm-started IK at check_points values of s; refuse it (InputError) where
+    IK fails or a joint leaves its position limits (joint_projection.check_position_limits)."""
+    data = model.createData()
     q = np.array(q_start, float)
     for s in np.linspace(0, 1, check_points):
         try:
             q = solve_ik(model, data, frame_id, path.pose(s), q, ik_tolerance)
         except IKFailure as exc:
-            raise InputError(f"the line is not reachable at s = {s:.3f}: {exc.reason}", field="position") from exc
-    return MotionInstruction("linear", path, f, params, frame_id, np.array(q_start, float))
+            raise InputError(f"the path is not reachable at s = {s:.3f}: {exc.reason}", field="position") from exc
+        check_position_limits(model, q, s)

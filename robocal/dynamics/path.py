@@ -34,6 +34,11 @@ class CartesianPath:
     def rotation(self, s: float) -> np.ndarray:
         return self.rotation0
 
+    def angular_derivatives(self, s: float) -> tuple[np.ndarray, np.ndarray]:
+        """(w', w'') (3,) rad: world-frame angular rate of the tool per unit s and its derivative
+        (zero for a constant orientation)."""
+        return np.zeros(3), np.zeros(3)
+
     def pose(self, s: float) -> pin.SE3:
         return pin.SE3(self.rotation(s), self.derivatives(s)[0])
 
@@ -68,6 +73,9 @@ class LinearPath(CartesianPath):
     def angular_rate(self) -> np.ndarray:
         """World-frame d(orientation)/ds, rad (constant along a geodesic)."""
         return self.start.rotation @ self._rot_log
+
+    def angular_derivatives(self, s):
+        return self.angular_rate(), np.zeros(3)
 
 
 class CircularPath(CartesianPath):
