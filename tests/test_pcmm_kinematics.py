@@ -8,7 +8,7 @@ from robocal.systems.pcmm.machine import reference_geometry, reference_raw
 from robocal.systems.pcmm.kinematics import (axis_directions, forward_kinematics, ik_jacobian,
                                                 inverse_kinematics, pose_error_jacobian, random_workspace_poses,
                                                 reduced_names, rz, tip_error_jacobian, tip_points)
-from robocal.systems.pcmm.calibration import first_order_pose_correction
+from robocal.systems.pcmm.compensation import first_order_pose_correction
 
 GEO = reference_geometry()
 

@@ -1,4 +1,4 @@
-"""The 4-PUU parallel CMM of spec seed-003: reference design, URDF writer, artefact and probing plan.
+"""The 4-PUU parallel CMM (docs/pcmm_calibration.md): reference design, URDF writer, artefact and probing plan.
 
 URDF written by `build_urdf` (a tree Pinocchio loads, plus closures robocal reads; units m, rad):
 
@@ -28,12 +28,15 @@ from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
+from lxml import etree
 
 from robocal.errors import InputError
-from robocal.model.parameters import Parameter, ParameterSet
-from robocal.systems.pcmm.error_model import RawPCMM
-from robocal.systems.pcmm.kinematics import LIMB_FIELDS, PCMMGeometry, inverse_kinematics, rz
 from robocal.io.text_files import format_numbers, write_atomic
+from robocal.model.loops_urdf import read_loops
+from robocal.model.parameters import Parameter, ParameterSet
+from robocal.model.robot import Robot
+from robocal.systems.pcmm.error_model import RawPCMM, raw_inverse_kinematics
+from robocal.systems.pcmm.kinematics import LIMB_FIELDS, PCMMGeometry, axis_directions, inverse_kinematics, rz
 
 PHI = np.radians([45.0, 135.0, 225.0, 315.0])
 HOME_Z = -0.65
@@ -133,7 +136,6 @@ def simulate_probing(true_machine, artefact: Artefact, centroids, yaws, rng: np.
     Tip centres lie on the sphere of radius r_ref + r_tip; theta is uniform in +-theta_range per hit;
     `noise` is the standard deviation (m) of independent Gaussian axis-reading noise.
     """
-    from robocal.systems.pcmm.error_model import raw_inverse_kinematics
     ik = raw_inverse_kinematics if isinstance(true_machine, RawPCMM) else inverse_kinematics
     dirs = cap_directions(n_hits)
     rows, plc, sph = [], [], []
@@ -206,6 +208,14 @@ def write_urdf(geo: PCMMGeometry, path, name: str = "pcmm_4puu") -> Path:
     return write_atomic(path, build_urdf(geo, name))
 
 
+def machine_robot(geo: PCMMGeometry, name: str = "pcmm_4puu") -> Robot:
+    """The robot of `build_urdf(geo)`, built in memory (no file): the machine a generic Problem is about."""
+    text = build_urdf(geo, name)
+    robot = Robot(model=pin.buildModelFromXML(text), urdf_text=text, name=name)
+    robot.loops = read_loops(robot, etree.fromstring(text.encode("utf-8")))
+    return robot
+
+
 def generic_parameters() -> tuple[ParameterSet, list[str]]:
     """robocal ParameterSet with the 32 generic parameters of the reduced model (all free, value 0), and
     their names in the reduced order (`pcmm_kinematics.reduced_names`)."""
@@ -227,7 +237,6 @@ def urdf_configuration(robot, geo: PCMMGeometry, Y: np.ndarray, rho: np.ndarray)
     for k, name in enumerate(("platform_x", "platform_y", "platform_z", "platform_rz")):
         q[m.joints[m.getJointId(name)].idx_q] = Y[k] - (geo.home[2] if k == 2 else 0.0)
     R = rz(Y[3])
-    from robocal.systems.pcmm.kinematics import axis_directions
     e = axis_directions(geo.tilts)[0]
     for i in range(4):
         slide = pin.utils.rotate("x", geo.tilts[i, 0]) @ pin.utils.rotate("y", geo.tilts[i, 1])
