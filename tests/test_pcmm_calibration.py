@@ -20,6 +20,7 @@ from robocal.systems.pcmm.machine import (Artefact, reference_artefact, referenc
 from robocal.systems.pcmm.kinematics import inverse_kinematics, random_workspace_poses, reduced_names, tip_points
 from robocal.systems.pcmm.calibration import (AcquisitionWarning, calibrate_pcmm, effective_rank, machine_jacobian,
                                               predicted_covariance, row_space_projector)
+from robocal.residuals.base import Term
 from robocal.systems.pcmm.residual import PCMMArtefactResidual
 
 NOM, ART = reference_geometry(), reference_artefact()
@@ -191,7 +192,7 @@ def test_loop_stops_when_no_step_lowers_the_cost(monkeypatch):
         calls["n"] += 1
         term = real(self, k, states, aux)
         if calls["n"] > 2 * self.n_terms:           # the start is evaluated twice (warnings, then the fit)
-            term.r = term.r * 1e6
+            return Term(term.r * 1e6, term.frames, term.aux)
         return term
     monkeypatch.setattr(PCMMArtefactResidual, "evaluate", worse_after_first)
     res = calibrate_pcmm(NOM, hits, ART)

@@ -11,9 +11,10 @@ every parameter: the data decide the 27 directions they see (the prior's pull on
 data's) and the prior picks, along the five blind ones, the machine nearest the nominal, as the patent's
 minimum-norm steps did; the result reports those five as determined by their priors only.
 gauge="fix" holds five parameters at their nominal value as constraints: the generic base-parameter
-selection walks the reduced order and fixes the five that the earlier ones already explain. Either way
+selection fixes the five that the others already explain, after the five that column-pivoted QR of the
+scaled Jacobian leaves out have been put last in the order (a well-conditioned choice). Either way
 the fit is one representative of the gauge class, and every gauge-invariant figure (distances, rigidly
-aligned tip errors) is the same; "fix" converges in more iterations (its slice is worse conditioned).
+aligned tip errors) is the same.
 Acquisition warnings use the same selection: exact rank, and an effective rank that also counts as missing
 the directions too weak to be useful. Units: SI (m, rad). See docs/pcmm_calibration.md.
 """
@@ -24,6 +25,7 @@ import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.linalg
 
 from robocal.errors import InputError
 from robocal.estimation.calibrate import CalibrationOptions, calibrate
@@ -191,11 +193,27 @@ def screen_spheres(fit_rms: np.ndarray, factor: float = 5.0, floor: float = 1e-7
     return [(int(g), int(j), float(rms[g, j])) for g, j in np.argwhere(rms > limit)]
 
 
+def gauge_last(J: np.ndarray, rtol: float = 1e-8) -> list[str]:
+    """Names of the reduced parameters that column-pivoted QR of the column-scaled J (M, 32) leaves out:
+    held last in the order, they are the ones the generic selection attributes the gauge to."""
+    norms = np.linalg.norm(J, axis=0)
+    _, R, piv = scipy.linalg.qr(J / np.where(norms > 0, norms, 1.0), mode="economic", pivoting=True)
+    d = np.abs(np.diag(R))
+    k = int(np.sum(d > rtol * d[0]))
+    names = reduced_names()
+    return [names[i] for i in sorted(piv[k:])]
+
+
 def _fit(problem: Problem, options: CalibrationOptions | None):
     """Acquisition warnings and rms before, the generic fit, rms after."""
     ev0 = problem.evaluate()
     J = ev0.J[measurement_rows(problem)][:, reduced_columns(problem)]
     msgs = acquisition_warnings(J, artefact_residual(problem).last.poses)
+    # The selection walks the parameters in order and drops the later of two it cannot tell apart; left in
+    # the reduced order it would hold limb3.ay and four limb4 parameters, a slice of the gauge class on
+    # which LM needs ~37 iterations instead of ~5 (benchmarks/pcmm_calibration.py). QR picks a better one.
+    last = set(gauge_last(J))
+    problem.params.reorder(lambda p: p.name in last)
     result = calibrate(problem, options, source="PCMM probe hits")
     return msgs, rms_by_kind(problem, ev0.r), result, rms_by_kind(problem, result.solve.fun)
 

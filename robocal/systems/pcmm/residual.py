@@ -72,6 +72,7 @@ class PCMMArtefactResidual(SphereArtefactResidual):
         # FK starts at the home height with the commanded rotation; later calls start at the last solution
         self.start = np.column_stack([np.broadcast_to(nominal.home[:3], (len(self.readings), 3)), hits.theta_cmd])
         self.last: HitKinematics | None = None
+        self.terms_key, self.terms = b"", {}     # the terms of the last parameter vector evaluated
 
     def aux_parameters(self) -> list[Parameter]:
         return super().aux_parameters() + machine_parameters()
@@ -120,13 +121,18 @@ class PCMMArtefactResidual(SphereArtefactResidual):
         return r, dX, used, hits
 
     def evaluate(self, k, states, aux):
-        kin = self.kinematics(aux)
-        r, dX, used, hits = self._placement_rows(k, aux, kin.tips)
-        A = np.zeros((self.dim, len(aux)))
-        A[:, :self.n_certificate] = self.certificate_jacobian()
-        A[~self.live_rows(k), :self.n_certificate] = 0.0
-        A[used, self.n_certificate:] = dX @ kin.tip_jacobian[hits].reshape(-1, N_REDUCED)
-        return Term(r, [], A)
+        key = np.asarray(aux, dtype=float).tobytes()
+        if key != self.terms_key:     # a calibration evaluates its start twice (warnings, then the fit)
+            self.terms_key, self.terms = key, {}
+        if k not in self.terms:
+            kin = self.kinematics(aux)
+            r, dX, used, hits = self._placement_rows(k, aux, kin.tips)
+            A = np.zeros((self.dim, len(aux)))
+            A[:, :self.n_certificate] = self.certificate_jacobian()
+            A[~self.live_rows(k), :self.n_certificate] = 0.0
+            A[used, self.n_certificate:] = dX @ kin.tip_jacobian[hits].reshape(-1, N_REDUCED)
+            self.terms[k] = Term(r, [], A)
+        return self.terms[k]
 
     def reading_jacobian(self, aux: np.ndarray) -> np.ndarray:
         """(n_terms * dim, 4 N) derivative of every row (unscaled) with respect to the axis readings."""
