@@ -167,10 +167,11 @@ def test_commands_through_identified_ik_reach_the_targets(noisy_run):
 def test_gauge_by_constraints_agrees_with_gauge_by_priors():
     raw, true = truth()
     hits = hits_of(raw)
-    fix = calibrate_pcmm(NOM, hits, ART, gauge="fix")
+    fix = calibrate_pcmm(NOM, hits, ART)
     assert fix.converged and np.sum(fix.d_eps == 0.0) == 5       # five parameters held: the gauge
     assert fix.gauge == fix.result.unidentifiable and len(fix.gauge) == 5 and fix.rank == 27
-    prior = calibrate_pcmm(NOM, hits, ART)
+    prior = calibrate_pcmm(NOM, hits, ART, gauge="prior")
+    assert prior.converged and prior.rank == 27 and np.sum(prior.d_eps == 0.0) == 0
     assert prior.result.prior_only == fix.gauge                  # the same five, now set by their prior
     poses = random_workspace_poses(100, np.random.default_rng(12))
     assert validate(true, fix.geometry, poses).tip_rms < 1e-8
@@ -178,7 +179,7 @@ def test_gauge_by_constraints_agrees_with_gauge_by_priors():
     rho = inverse_kinematics(true, poses)
     assert gauge_align(compensate_measurement(fix.geometry, rho, poses[:, 3]),
                        compensate_measurement(prior.geometry, rho, poses[:, 3]))[2] < 1e-8
-    with pytest.raises(ValueError, match="gauge must be one of prior, fix"):
+    with pytest.raises(ValueError, match="gauge must be one of fix, prior"):
         calibrate_pcmm(NOM, hits, ART, gauge="svd")
 
 

@@ -6,15 +6,14 @@ identifies the machine's 32 reduced parameters with the generic Levenberg-Marqua
 
 Gauge: distances and radii are blind to five directions of the 32 (base translation x, y, z, base rotation
 z, theta zero; robocal.systems.pcmm.error_model.gauge_vectors). Two treatments, both generic:
-gauge="prior" (default) puts a weak prior (GAUGE_SIGMA = 1 m or 1 rad, a million times the rows' sigma) on
-every parameter: the data decide the 27 directions they see (the prior's pull on them is ~1e-12 of the
-data's) and the prior picks, along the five blind ones, the machine nearest the nominal, as the patent's
-minimum-norm steps did; the result reports those five as determined by their priors only.
-gauge="fix" holds five parameters at their nominal value as constraints: the generic base-parameter
-selection fixes the five that the others already explain, after the five that column-pivoted QR of the
-scaled Jacobian leaves out have been put last in the order (a well-conditioned choice). Either way
-the fit is one representative of the gauge class, and every gauge-invariant figure (distances, rigidly
-aligned tip errors) is the same.
+gauge="fix" (default) holds five parameters at their nominal value as constraints: the five that
+column-pivoted QR of the scaled Jacobian leaves out are put last in the order, and the generic
+base-parameter selection, which drops the later of two parameters it cannot tell apart, holds them and
+reports what each is confounded with. gauge="prior" puts a weak prior (GAUGE_SIGMA = 1 km or 1000 rad, 1e9
+times the rows' sigma) on every parameter: the data decide the 27 directions they see and the prior picks,
+along the five blind ones, the machine nearest the nominal (the minimum-norm choice); the result names five
+parameters as determined by their priors only. Either way the fit is one representative of the gauge
+class, and every gauge-invariant figure (distances, rigidly aligned tip errors) is the same.
 Acquisition warnings use the same selection: exact rank, and an effective rank that also counts as missing
 the directions too weak to be useful. Units: SI (m, rad). See docs/pcmm_calibration.md.
 """
@@ -41,8 +40,8 @@ log = logging.getLogger(__name__)
 EXPECTED_RANK = 27       # 32 reduced parameters minus 5 gauge directions
 RESIDUAL = "artefact"
 ROW_SIGMA = 1e-6         # m, default standard deviation of a distance or radius row
-GAUGE_SIGMA = 1.0        # m or rad: the weak prior of gauge="prior"
-GAUGES = ("prior", "fix")
+GAUGE_SIGMA = 1e3        # m or rad: the weak prior of gauge="prior" (1 m biased a noise-free fit by ~1e-14 m)
+GAUGES = ("fix", "prior")
 # A scaled singular value below WEAK_RTOL x the largest counts as missing in the effective rank. Heuristic
 # from the reference design: with theta varied by +-0.3 rad the 27th scaled singular value is ~2e-3 of the
 # largest; with theta fixed the 18th falls to ~5e-4 (docs/pcmm_calibration.md).
@@ -211,7 +210,7 @@ def _fit(problem: Problem, options: CalibrationOptions | None):
     msgs = acquisition_warnings(J, artefact_residual(problem).last.poses)
     # The selection walks the parameters in order and drops the later of two it cannot tell apart; left in
     # the reduced order it would hold limb3.ay and four limb4 parameters, a slice of the gauge class on
-    # which LM needs ~37 iterations instead of ~5 (benchmarks/pcmm_calibration.py). QR picks a better one.
+    # which LM needed 37 iterations instead of 5 on the reference run. QR picks a better-conditioned one.
     last = set(gauge_last(J))
     problem.params.reorder(lambda p: p.name in last)
     result = calibrate(problem, options, source="PCMM probe hits")
@@ -219,11 +218,11 @@ def _fit(problem: Problem, options: CalibrationOptions | None):
 
 
 def calibrate_pcmm(nominal: PCMMGeometry, hits: ProbeHits, artefact: Artefact, use: str = "both",
-                   sigma: float = ROW_SIGMA, gauge: str = "prior", screen: bool = False, screen_factor: float = 5.0,
+                   sigma: float = ROW_SIGMA, gauge: str = "fix", screen: bool = False, screen_factor: float = 5.0,
                    screen_floor: float = 1e-7, options: CalibrationOptions | None = None) -> PCMMCalibration:
     """Identify the 32 reduced parameters from probe hits on the artefact, starting from `nominal`.
 
-    use: "both", "distance" or "radius" rows; sigma: their standard deviation (m); gauge: "prior" or "fix"
+    use: "both", "distance" or "radius" rows; sigma: their standard deviation (m); gauge: "fix" or "prior"
     (module doc); screen: flag spheres with a mis-triggered hit (fit RMS above screen_factor x the robust
     scale of all fits, and above screen_floor) and identify again without them; options: the generic
     solver's."""
