@@ -91,8 +91,8 @@ def damped_newton(rows: Callable, x0: np.ndarray, retract: Callable, free=None, 
             raise failure(f"{label}: {what} is stuck at an error of {err:.3g} after {it} iterations: out of "
                           "reach from this start, held by a joint limit, or singular")
         x, r, jac, cost = x_try, r_try, jac_try, cost_try
-    raise failure(f"{label}: {what} did not converge in {max_iterations} iterations (error {err:.3g}): "
-                  "out of reach or singular")
+    raise failure(f"{label}: {what} did not converge in {max_iterations} iterations (an error of {err:.3g} "
+                  "remains): out of reach or singular")
 
 
 def damped_step(a: np.ndarray, r: np.ndarray, mu: float) -> np.ndarray:
