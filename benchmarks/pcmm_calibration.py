@@ -63,8 +63,8 @@ for k in range(40):
 t_generic = (time.perf_counter() - t0) / 40
 
 print(f"4-PUU CMM self-calibration benchmark: {n} hits, {len(ev.r)} rows, 32 parameters")
-print(f"| {"step":56s} | {'time':>10s} |")
-print(f"|{"-" * 58}|{'-' * 12}|")
+print(f"| {'step':56s} | {'time':>10s} |")
+print(f"|{'-' * 58}|{'-' * 12}|")
 print(f"| {'residuals + analytic Jacobian (closed-form plug-in)':56s} | {t_jac * 1e3:7.1f} ms |")
 print(f"| {'acquisition check (rank, warnings)':56s} | {t_check * 1e3:7.1f} ms |")
 print(f"| {f'whole self-calibration, gauge fix ({len(res.history)} LM iterations)':56s} | {t_cal * 1e3:7.1f} ms |")

@@ -1,4 +1,4 @@
-"""4-PUU parallel CMM closed-form kinematics and error model (spec seed-003 acceptance tests 1-4, 12c-d)."""
+"""4-PUU parallel CMM closed-form kinematics and error model (acceptance tests 1-4, 12c-d of docs/pcmm_calibration.md's source)."""
 import numpy as np
 import pytest
 

@@ -15,7 +15,7 @@ __all__ = ["IKFailure", "solve_ik"]
 def solve_ik(model: pin.Model, data: pin.Data, frame_id: int, target: pin.SE3, q_start: np.ndarray,
              tolerance: float = 1e-10, max_iterations: int = 50, damping: float = 1e-12) -> np.ndarray:
     """q (nq,) with the frame at `target` (|log6(target^-1 M)| <= tolerance, metres / radians), warm-started
-    at q_start (the patent's k^-1). Raises IKFailure when the target is not reached."""
+    at q_start (the previous tick's solution; docs/dynamics.md). Raises IKFailure when the target is not reached."""
     # frame_ik stops on the largest of the 6 components; below tolerance / sqrt(6) the 2-norm is within it
     return frame_ik(model, frame_id, target, q_start, data=data, tol=tolerance / np.sqrt(6.0),
                     max_iterations=max_iterations, singular_rcond=None, damping=damping, max_step=MAX_STEP)
