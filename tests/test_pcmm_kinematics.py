@@ -1,4 +1,5 @@
-"""4-PUU parallel CMM closed-form kinematics and error model (acceptance tests 1-4, 12c-d of docs/pcmm_calibration.md's source)."""
+"""4-PUU parallel CMM closed-form kinematics and error model (acceptance tests 1-4, 12c-d of the
+specification behind docs/pcmm_calibration.md)."""
 import numpy as np
 import pytest
 

@@ -1,4 +1,5 @@
-"""Closed-form kinematics of the 4-PUU parallel CMM (docs/pcmm_calibration.md): the engine of the calibration's residual.
+"""Closed-form kinematics of the 4-PUU parallel CMM: the engine of the calibration's residual
+(docs/pcmm_calibration.md).
 
 Reduced geometry (SI: m, rad), limb i = 0..3 (named limb1..limb4):
 

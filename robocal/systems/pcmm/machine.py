@@ -52,7 +52,8 @@ _INDEX = {"tx": 0, "ty": 1, "tz": 2, "rx": 3, "ry": 4, "rz": 5}
 
 
 def reference_raw() -> RawPCMM:
-    """The reference design of docs/pcmm_calibration.md with its raw parts: a = 350 mm radius, d = -40 mm, b = 90 mm (+-35 deg)."""
+    """The reference design (docs/pcmm_calibration.md) with its raw parts: a = 350 mm radius, d = -40 mm,
+    b = 90 mm (+-35 deg)."""
     c, s = np.cos(PHI), np.sin(PHI)
     a = 0.35 * np.column_stack([c, s, np.zeros(4)])
     d = -0.04 * np.column_stack([c, s, np.zeros(4)])
