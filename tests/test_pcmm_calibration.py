@@ -5,6 +5,7 @@ Truth: the reference design with all 52 raw error sources drawn from the spec's 
 simulated with the RAW model (so the reduction is tested too), 8 placements x 4 spheres x 9 hits.
 """
 import warnings
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -66,6 +67,35 @@ def test_rank_27_with_the_five_gauge_vectors_in_the_null_space():
     # the five span the numerical null space
     null_space = np.linalg.svd(J)[2][27:].T
     assert np.linalg.svd(null_space.T @ G.T, compute_uv=False).min() > 1 - 1e-8
+
+
+def test_plugin_jacobians_match_central_differences():
+    """The closed-form plug-in's derivatives with respect to the 32 parameters and to the axis readings."""
+    raw, true = truth()
+    hits = simulate_probing(raw, ART, CENTROIDS[:2], YAWS[:2], np.random.default_rng(5), n_hits=5)
+    problem = pc.pcmm_problem(NOM, hits, ART, sigma=1.0)
+    res = pc.artefact_residual(problem)
+    aux0 = problem.aux_values(res)
+    cols = slice(res.n_certificate, len(aux0))
+
+    def rows(aux, readings=None):
+        r = PCMMArtefactResidual("fd", NOM, hits if readings is None else replace(hits, readings=readings), ART,
+                                 1.0, 1.0)
+        return np.concatenate([r.evaluate(k, None, aux).r for k in range(r.n_terms)])
+
+    J = np.vstack([res.evaluate(k, None, aux0).aux[:, cols] for k in range(res.n_terms)])
+    # h = 1e-7 m or rad: truncation ~h^2 ~ 1e-14, rounding ~1e-16 / h ~ 1e-9, against |J| ~ 1
+    h = 1e-7
+    fd = np.column_stack([(rows(aux0 + h * e) - rows(aux0 - h * e)) / (2 * h)
+                          for e in np.eye(len(aux0))[cols]])
+    assert np.abs(J - fd).max() < 1e-6 * np.abs(J).max()
+    G = res.reading_jacobian(aux0)
+    rng = np.random.default_rng(6)
+    for c in rng.choice(G.shape[1], 6, replace=False):
+        d = np.zeros_like(hits.readings)
+        d.flat[c] = h
+        fd_c = (rows(aux0, hits.readings + d) - rows(aux0, hits.readings - d)) / (2 * h)
+        assert np.abs(G[:, c] - fd_c).max() < 1e-6 * np.abs(G).max()
 
 
 def test_fixed_rotation_drops_the_rank_and_warns():
