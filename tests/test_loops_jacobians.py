@@ -6,7 +6,8 @@ import pinocchio as pin
 import pytest
 
 import robocal
-from robocal.model.loops import Closure, LoopSet
+from robocal.model.loop_rows import Closure
+from robocal.model.loops import LoopSet
 
 URDF = Path(__file__).resolve().parents[1] / "urdf"
 EPS = 1e-6

@@ -1,5 +1,6 @@
-"""The 4-PUU CMM through robocal's generic layer: URDF with loop closures, generic parameters and the
-sphere-artefact residual agree with the closed-form fast path (the independent check)."""
+"""The 4-PUU CMM on its URDF with loop closures: generic placement parameters and the generic
+sphere-artefact residual agree with the closed-form residual plug-in the calibration uses (the
+independent check of that plug-in's rows and Jacobian)."""
 from pathlib import Path
 
 import numpy as np
@@ -12,7 +13,7 @@ from robocal.systems.pcmm.machine import (build_urdf, generic_parameters, refere
                                      write_urdf)
 from robocal.systems.pcmm.kinematics import (inverse_kinematics, random_workspace_poses, tip_error_jacobian,
                                                 tip_points)
-from robocal.systems.pcmm.calibration import evaluate
+from robocal.systems.pcmm.calibration import artefact_residual, pcmm_problem, reduced_columns
 from robocal.estimation.problem import Problem
 from robocal.residuals.sphere_artefact import SphereArtefactResidual
 from robocal.testing import assert_same_text_and_numbers
@@ -62,10 +63,13 @@ def test_sphere_residual_jacobian_through_the_generic_layer_equals_the_closed_fo
     res = SphereArtefactResidual("artefact", "probe_tip", groups, art.radii, art.distances,
                                  tip_radius=NOM.tip_radius, sigma_distance=1.0, sigma_radius=1.0)
     problem = Problem(robot, ps, robot.loops.actuated, hits.readings, [res])
-    ev_c = evaluate(NOM, hits, art)
-    for i, (y, r) in enumerate(zip(ev_c.poses, hits.readings)):
+    closed_form = pcmm_problem(NOM, hits, art, sigma=1.0)
+    ev_c = closed_form.evaluate()
+    J_c = ev_c.J[:, reduced_columns(closed_form)]
+    poses = artefact_residual(closed_form).last.poses
+    for i, (y, r) in enumerate(zip(poses, hits.readings)):
         problem.warm_starts[i] = urdf_configuration(robot, NOM, y, r)
     ev_g = problem.evaluate()
-    np.testing.assert_allclose(ev_g.r, ev_c.rows, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(ev_g.r, ev_c.r, rtol=0, atol=1e-12)
     # columns: generic_parameters() is in the reduced order, and Problem keeps that order for robot kinds
-    assert np.abs(ev_g.J - ev_c.jacobian).max() < 1e-9 * np.abs(ev_c.jacobian).max()
+    assert np.abs(ev_g.J - J_c).max() < 1e-9 * np.abs(J_c).max()

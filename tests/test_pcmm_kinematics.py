@@ -1,4 +1,5 @@
-"""4-PUU parallel CMM closed-form kinematics and error model (spec seed-003 acceptance tests 1-4, 12c-d)."""
+"""4-PUU parallel CMM closed-form kinematics and error model (acceptance tests 1-4, 12c-d of the
+specification behind docs/pcmm_calibration.md)."""
 import numpy as np
 import pytest
 
@@ -8,7 +9,7 @@ from robocal.systems.pcmm.machine import reference_geometry, reference_raw
 from robocal.systems.pcmm.kinematics import (axis_directions, forward_kinematics, ik_jacobian,
                                                 inverse_kinematics, pose_error_jacobian, random_workspace_poses,
                                                 reduced_names, rz, tip_error_jacobian, tip_points)
-from robocal.systems.pcmm.calibration import first_order_pose_correction
+from robocal.systems.pcmm.compensation import first_order_pose_correction
 
 GEO = reference_geometry()
 

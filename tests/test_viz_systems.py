@@ -15,7 +15,7 @@ from robocal.systems.pcmm import error_model as pe
 from robocal.systems.pcmm.machine import (reference_artefact, reference_geometry, reference_placements, reference_raw,
                                      simulate_probing)
 from robocal.model.parameters import ParameterSet, offset_parameter, placement_parameters
-from robocal.systems.pcmm.calibration import calibrate_pcmm, evaluate
+from robocal.systems.pcmm.calibration import calibrate_pcmm, pcmm_problem
 from robocal.estimation.problem import Problem
 from robocal.residuals import PoseResidual
 from robocal.viz.scene import read_scene, scene_bytes
@@ -91,7 +91,7 @@ def test_pcmm_calibration_scene(tmp_path):
     b = scene["blocks"][0]
     assert b["type"] == "sphere_artefact" and len(b["terms"]) == 4 and len(b["terms"][0]) == 20
     # the URDF model at the scene's parameters is the fast path's machine exactly, before and after
-    np.testing.assert_allclose(np.ravel(b["residual_before"]), evaluate(nominal, hits, art, jacobian=False).rows,
+    np.testing.assert_allclose(np.ravel(b["residual_before"]), pcmm_problem(nominal, hits, art).evaluate().raw,
                                atol=1e-10)
     assert np.abs(b["residual_after"]).max() < 1e-10 < np.abs(b["residual_before"]).max()
     # each hit's arrow is its radial error against the certified sphere about the fitted centre

@@ -1,85 +1,24 @@
-"""Loop closures: read them from URDF, evaluate their constraint rows, assemble closed chains.
+"""A closed chain's loops: the closures, the actuated/passive split, and assembly.
 
-A closed chain is its URDF spanning tree (loaded by Pinocchio) plus closure elements that URDF
-readers ignore. Two conventions are read:
-
-* robocal's written format, Drake's legacy ``<loop_joint>``::
-
-    <loop_joint name="leg1_top" type="spherical|fixed|distance|revolute" [length="0.3"]>
-      <link1 link="leg1_rod" xyz="0 0 0" rpy="0 0 0"/>
-      <link2 link="platform" xyz="0.2 0.05 0" rpy="0 0 0"/>
-      [<axis xyz="0 0 1"/>]            <!-- revolute only, in the link1 anchor frame -->
-    </loop_joint>
-
-* URDF+ (arXiv 2411.19753): ``<loop>`` (or ``<constraint>``) naming a predecessor and a successor
-  link, each with an optional ``<origin>``; type fixed, revolute/continuous (``<axis>``) and, as a
-  robocal extension, spherical. ``<coupling>`` (or ``<constraint type="coupling">``) with
-  ``<ratio value>``: a gear or screw ties two joints.
-
-* robocal's ``<screw_transmission>`` (a ball screw whose nut may roll; see robocal.model.joint_relations).
-
-Couplings and screw transmissions are joint relations: one linear row each, assembled with the closures.
-
-plus ``<actuated joints="j1 j2 ..."/>`` (or, failing that, the joints of ``<transmission>``
-elements). Each closure k is anchored on two Pinocchio frames ``<name>.link1`` and ``<name>.link2``
-that are added to ``robot.model``; moving a loop anchor is therefore a frame-placement edit.
-
-Constraint kinds (rows): point 3, frame 6, distance 1, revolute 5. Derivatives are taken with
-respect to a LOCAL right twist xi = [v; w] of each anchor frame (M <- M exp6(xi)).
+A closed chain is its URDF spanning tree (loaded by Pinocchio) plus closure elements that URDF readers
+ignore (read by robocal.model.loops_urdf). `LoopSet` stacks the closures' constraint rows
+(robocal.model.loop_rows) and the joint relations' rows (couplings, screw transmissions: one linear row
+each, robocal.model.joint_relations); `assemble` solves the passive joints for given actuated readings
+(closed-chain forward kinematics) with the damped Newton of robocal.model.inverse_kinematics.
+Each closure k is anchored on two Pinocchio frames ``<name>.link1`` and ``<name>.link2`` added to
+``robot.model``; moving a loop anchor is therefore a frame-placement edit.
 """
 from __future__ import annotations
 
 import copy
-import logging
-from dataclasses import dataclass
 
 import numpy as np
 import pinocchio as pin
-from scipy.linalg.lapack import dposv
 
 from robocal.errors import AssemblyError, InputError
-from robocal.model.joint_relations import Coupling  # noqa: F401  (re-exported: loops.Coupling)
-
-log = logging.getLogger(__name__)
-
-ROWS = {"point": 3, "frame": 6, "distance": 1, "revolute": 5}
-# closure `type` attribute -> kind, per convention
-_DRAKE_KINDS = {"spherical": "point", "ball": "point", "fixed": "frame", "distance": "distance",
-                "revolute": "revolute", "continuous": "revolute"}
-_URDFPLUS_KINDS = {"spherical": "point", "ball": "point", "fixed": "frame",
-                   "revolute": "revolute", "continuous": "revolute"}
-
-
-@dataclass(frozen=True)
-class Closure:
-    """One loop closure between frames `frame1` and `frame2` (names of Pinocchio frames).
-
-    kind    "point" | "frame" | "distance" | "revolute"
-    rows    number of constraint rows
-    length  target distance (m) for the distance kind, else 0
-    axis    (3,) unit hinge axis in the frame1 anchor frame (revolute kind), else None
-    """
-
-    name: str
-    kind: str
-    frame1: str
-    frame2: str
-    rows: int
-    length: float = 0.0
-    axis: tuple | None = None
-
-
-def _skew(a: np.ndarray) -> np.ndarray:
-    return np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
-
-
-def _orthonormal_pair(a: np.ndarray) -> np.ndarray:
-    """(2, 3): two unit vectors orthogonal to unit `a` and to each other."""
-    helper = np.eye(3)[int(np.argmin(np.abs(a)))]
-    e1 = np.cross(a, helper)
-    e1 /= np.linalg.norm(e1)
-    return np.vstack([e1, np.cross(a, e1)])
-
+from robocal.model.inverse_kinematics import damped_newton
+from robocal.model.joint_relations import Coupling
+from robocal.model.loop_rows import Closure, closure_rows
 
 class LoopSet:
     """The closures and the actuated/passive split of a closed-chain robot.
@@ -226,7 +165,7 @@ class LoopSet:
         c = np.empty(self.n_rows)
         D1, D2 = [], []
         for closure, sl, M1, M2 in zip(self.closures, self._slices, poses1, poses2):
-            ck, d1, d2 = _closure_rows(closure, M1, M2)
+            ck, d1, d2 = closure_rows(closure, M1, M2)
             c[sl] = ck
             D1.append(d1)
             D2.append(d2)
@@ -258,7 +197,7 @@ class LoopSet:
             jac[self._point_rows] = (cross - j1[:, :3] + (r1t @ h2[:, :3, :3]) @ j2[:, :3]).reshape(-1, model.nv)
         for k in self._other:
             closure, sl, (i1, i2) = self.closures[k], self._slices[k], self._ids[k]
-            ck, d1, d2 = _closure_rows(closure, oMf[i1], oMf[i2])
+            ck, d1, d2 = closure_rows(closure, oMf[i1], oMf[i2])
             c[sl] = ck
             jac[sl] = (d1 @ pin.getFrameJacobian(model, data, i1, local).reshape(6, -1)
                        + d2 @ pin.getFrameJacobian(model, data, i2, local).reshape(6, -1))
@@ -269,99 +208,6 @@ class LoopSet:
         pin.framesForwardKinematics(model, data, q)
         return self.closure_error([data.oMf[i] for i, _ in self._ids],
                                   [data.oMf[i] for _, i in self._ids])[0]
-
-
-def _closure_rows(closure: Closure, M1: pin.SE3, M2: pin.SE3):
-    """(c_k, D1_k, D2_k) of one closure; see LoopSet.closure_error."""
-    R1, R2 = M1.rotation, M2.rotation
-    kind = closure.kind
-    if kind == "frame":
-        M12 = M1.actInv(M2)
-        jl = pin.Jlog6(M12)
-        return pin.log6(M12).vector, -jl @ M12.inverse().action, jl
-    d = M2.translation - M1.translation
-    if kind == "distance":
-        n = np.linalg.norm(d)
-        u = d / n if n > 0 else np.zeros(3)  # coincident points: no direction, derivative 0
-        d1, d2 = np.zeros((1, 6)), np.zeros((1, 6))
-        d1[0, :3] = -(R1.T @ u)
-        d2[0, :3] = R2.T @ u
-        return np.array([n - closure.length]), d1, d2
-    cp = R1.T @ d
-    R12 = R1.T @ R2
-    d1 = np.zeros((ROWS[kind], 6))
-    d2 = np.zeros((ROWS[kind], 6))
-    d1[:3, :3] = -np.eye(3)
-    d1[:3, 3:] = _skew(cp)
-    d2[:3, :3] = R12
-    if kind == "point":
-        return cp, d1, d2
-    # revolute: point rows + the hinge axes stay aligned (two components of R12 a across a)
-    a = np.asarray(closure.axis)
-    E = _orthonormal_pair(a)
-    b = R12 @ a
-    d1[3:, 3:] = E @ _skew(b)
-    d2[3:, 3:] = -E @ R12 @ _skew(a)
-    return np.concatenate([cp, E @ b]), d1, d2
-
-
-# ---- solving --------------------------------------------------------------------------------
-def _solve(model, q, residual_jacobian, free_v, tol, max_iter, sample, what, singular_rcond):
-    """Damped Gauss-Newton (Levenberg-Marquardt with mu = |c|^2) plus backtracking line search.
-
-    residual_jacobian(q) -> (c, J) with J (m, nv); only the columns `free_v` move.
-    Converges when max|c| < tol; raises AssemblyError naming `sample` otherwise, or when the
-    solution is singular (smallest/largest singular value of J[:, free_v] below singular_rcond).
-    """
-    label = f"sample {sample}" if sample is not None else "the given readings"
-    c, jac = residual_jacobian(q)
-    cost = float(c @ c)
-    v = np.zeros(model.nv)
-    for it in range(max_iter + 1):
-        a = jac[:, free_v]
-        err = float(np.max(np.abs(c))) if c.size else 0.0
-        if err < tol:
-            s = np.linalg.svd(a, compute_uv=False)
-            if s.size and s[min(a.shape) - 1] < singular_rcond * max(s[0], 1e-300):
-                raise AssemblyError(
-                    f"{label}: {what} reached a singular configuration (condition number "
-                    f"{s[0] / max(s[min(a.shape) - 1], 1e-300):.3g}); the passive joints are not "
-                    "determined by these readings")
-            log.debug("%s converged in %d iterations (|c| = %.2e)", what, it, err)
-            return q
-        if it == max_iter:
-            break
-        # Levenberg-Marquardt step, damping mu = |c|^2 (vanishes at the solution: quadratic
-        # convergence when regular, bounded steps near singularities); Cholesky via LAPACK
-        normal = a.T @ a
-        normal.flat[::normal.shape[0] + 1] += cost
-        step, info = _cholesky_solve(normal, -(a.T @ c))
-        if info != 0:
-            step = -np.linalg.lstsq(a, c, rcond=None)[0]
-        alpha, accepted = 1.0, False
-        for _ in range(30):
-            v[:] = 0.0
-            v[free_v] = alpha * step
-            q_try = pin.integrate(model, q, v)
-            c_try, jac_try = residual_jacobian(q_try)
-            cost_try = float(c_try @ c_try)
-            if cost_try < (1.0 - 1e-4 * alpha) * cost:
-                accepted = True
-                break
-            alpha *= 0.5
-        if not accepted:
-            raise AssemblyError(
-                f"{label}: {what} is stuck at a closure error of {err:.3g} after {it} iterations; "
-                "the readings cannot be assembled (out of reach) or the configuration is singular")
-        q, c, jac, cost = q_try, c_try, jac_try, cost_try
-    raise AssemblyError(f"{label}: {what} did not converge in {max_iter} iterations "
-                        f"(closure error {err:.3g}); the readings are out of reach or singular")
-
-
-def _cholesky_solve(matrix, rhs):
-    """x, info for a symmetric positive definite system (info != 0: not positive definite)."""
-    _, x, info = dposv(matrix, rhs)
-    return x, info
 
 
 def _loops_of(robot):
@@ -396,36 +242,8 @@ def assemble(robot, model: pin.Model, actuated_values, q_guess=None, sample=None
             c, jac = loops.constraint_jacobian(model, data, q)
             cr, jr = loops.relation_rows(q, values)
             return np.concatenate([c, cr]), np.vstack([jac, jr])
-    return _solve(model, q0, rows, loops.solved_v, tol, max_iter, sample, "closed-chain assembly", singular_rcond)
+    return damped_newton(rows, q0, lambda q, v: pin.integrate(model, q, v), free=loops.solved_v, tol=tol,
+                         max_iterations=max_iter, singular_rcond=singular_rcond, sample=sample,
+                         what="closed-chain assembly", failure=AssemblyError)
 
 
-def inverse_kinematics(robot, model: pin.Model, frame: str, target: pin.SE3, q_guess=None, sample=None,
-                       tol: float = 1e-12, max_iter: int = 100, data: pin.Data | None = None,
-                       singular_rcond: float = 1e-6) -> np.ndarray:
-    """Generic inverse kinematics: all joints move so that `frame` reaches `target` (world SE3)
-    while every closure holds. Returns q (nq,); read the actuators with
-    robot.loops.actuated_values(q). Works on serial robots too (no closures)."""
-    loops = robot.loops
-    data = model.createData() if data is None else data
-    fid = robot.frame_id(frame)
-    target_inv = target.inverse()
-    n_rows = loops.n_rows if loops is not None else 0
-
-    def residual_jacobian(q):
-        if loops is not None:
-            c, jc = loops.constraint_jacobian(model, data, q)
-            if loops.relations:   # couplings hold; a driven joint's reading is an output here
-                cr, jr = loops.relation_rows(q, with_readings=False)
-                c, jc = np.concatenate([c, cr]), np.vstack([jc, jr])
-        else:
-            pin.computeJointJacobians(model, data, q)
-            pin.updateFramePlacements(model, data)
-            c, jc = np.zeros(0), np.zeros((0, model.nv))
-        err = target_inv * data.oMf[fid]
-        jf = pin.Jlog6(err) @ pin.getFrameJacobian(model, data, fid, pin.ReferenceFrame.LOCAL).reshape(6, -1)
-        return np.concatenate([c, pin.log6(err).vector]), np.vstack([jc, jf])
-
-    q0 = pin.neutral(model) if q_guess is None else np.asarray(q_guess, dtype=float)
-    log.debug("generic IK on %d closure rows + 6 pose rows, %d unknowns", n_rows, model.nv)
-    return _solve(model, q0, residual_jacobian, np.arange(model.nv), tol, max_iter, sample,
-                  "inverse kinematics", singular_rcond)

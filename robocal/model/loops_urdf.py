@@ -1,7 +1,29 @@
 """Reading loop closures, couplings and the actuated joints of a closed chain from URDF (lxml).
 
-The formats are described in robocal.model.loops. Each closure k is anchored on two Pinocchio frames
-``<name>.link1`` and ``<name>.link2`` added to ``robot.model``.
+A closed chain is its URDF spanning tree (loaded by Pinocchio) plus closure elements that URDF
+readers ignore. Two conventions are read:
+
+* robocal's written format, Drake's legacy ``<loop_joint>``::
+
+    <loop_joint name="leg1_top" type="spherical|fixed|distance|revolute" [length="0.3"]>
+      <link1 link="leg1_rod" xyz="0 0 0" rpy="0 0 0"/>
+      <link2 link="platform" xyz="0.2 0.05 0" rpy="0 0 0"/>
+      [<axis xyz="0 0 1"/>]            <!-- revolute only, in the link1 anchor frame -->
+    </loop_joint>
+
+* URDF+ (arXiv 2411.19753): ``<loop>`` (or ``<constraint>``) naming a predecessor and a successor
+  link, each with an optional ``<origin>``; type fixed, revolute/continuous (``<axis>``) and, as a
+  robocal extension, spherical. ``<coupling>`` (or ``<constraint type="coupling">``) with
+  ``<ratio value>``: a gear or screw ties two joints.
+
+* robocal's ``<screw_transmission>`` (a ball screw whose nut may roll; see robocal.model.joint_relations).
+
+Couplings and screw transmissions are joint relations: one linear row each, assembled with the closures.
+
+plus ``<actuated joints="j1 j2 ..."/>`` (or, failing that, the joints of ``<transmission>``
+elements). Each closure k is anchored on two Pinocchio frames ``<name>.link1`` and ``<name>.link2``
+that are added to ``robot.model``; moving a loop anchor is therefore a frame-placement edit.
+Closure kinds and their rows: robocal.model.loop_rows.
 """
 from __future__ import annotations
 
@@ -12,9 +34,16 @@ import pinocchio as pin
 
 from robocal.errors import InputError
 from robocal.model.joint_relations import Coupling, ScrewTransmission
-from robocal.model.loops import ROWS, _DRAKE_KINDS, _URDFPLUS_KINDS, Closure, LoopSet
+from robocal.model.loop_rows import ROWS, Closure
+from robocal.model.loops import LoopSet
 
 log = logging.getLogger(__name__)
+
+# closure `type` attribute -> kind, per convention
+DRAKE_KINDS = {"spherical": "point", "ball": "point", "fixed": "frame", "distance": "distance",
+                "revolute": "revolute", "continuous": "revolute"}
+URDFPLUS_KINDS = {"spherical": "point", "ball": "point", "fixed": "frame",
+                   "revolute": "revolute", "continuous": "revolute"}
 
 
 def _floats(element, attr: str, n: int, default: str, source: str) -> np.ndarray:
@@ -62,7 +91,7 @@ def _read_closure(robot, element, source):
         raise InputError(f"<{element.tag}> without a name", source=source, row=element.sourceline, field="name")
     type_ = (element.get("type") or "").lower()
     drake = element.tag == "loop_joint"
-    kinds = _DRAKE_KINDS if drake else _URDFPLUS_KINDS
+    kinds = DRAKE_KINDS if drake else URDFPLUS_KINDS
     if type_ not in kinds:
         raise InputError(f"closure '{name}' has type '{type_}'; robocal reads "
                          f"{', '.join(sorted(kinds))}", source=source, row=element.sourceline, field="type")

@@ -127,8 +127,14 @@ class SphereArtefactResidual(Residual):
             ids += [int(i) for i in h]
         rows, dX, _ = artefact_rows(pts, D, radii, aux[-1], source=f"residual '{self.name}', placement {k}")
         frames = [(i, self.frame, dX[:, 3 * n:3 * n + 3] @ Jp) for n, (i, Jp) in enumerate(zip(ids, jacs))]
-        A = np.zeros((self.dim, len(aux)))
+        return Term(rows, frames, self.certificate_jacobian())
+
+    def certificate_jacobian(self) -> np.ndarray:
+        """(dim, S + S(S-1)/2 + 1) derivative of a term's rows with respect to the certificate's radii and
+        distances and the tip radius (the auxiliaries in their order)."""
+        S, n_pairs = self.n_spheres, len(self.pairs)
+        A = np.zeros((self.dim, S + n_pairs + 1))
         A[n_pairs:, :S] = -np.eye(S)
         A[:n_pairs, S:S + n_pairs] = -np.eye(n_pairs)
         A[n_pairs:, -1] = -1.0
-        return Term(rows, frames, A)
+        return A

@@ -14,6 +14,7 @@ import numpy as np
 import pinocchio as pin
 
 from robocal.errors import InputError, RobocalError
+from robocal.model.inverse_kinematics import IKFailure, reading_ik
 from robocal.residuals.base import basis_from_normal
 
 DEG = np.pi / 180.0
@@ -75,34 +76,6 @@ def beam_frame(target, direction, pose: PlannedPose, roll: float = 0.0) -> pin.S
     return pin.SE3(R, np.asarray(target, dtype=float) - pose.standoff * R[:, 2])
 
 
-def inverse_kinematics(ms, frame: str, target: pin.SE3, seed, lower, upper, tol: float = 1e-12,
-                       max_iterations: int = 200):
-    """Joint readings putting `frame` at `target` on the model `ms` (a robocal ModelState), or None.
-
-    Damped Gauss-Newton from `seed` on the frame's LOCAL error log6(M^-1 target), clipped to the limits:
-    it stays on the seed's branch, which is what keeps a sweep continuous.
-    """
-    v = np.clip(np.asarray(seed, dtype=float).copy(), lower, upper)
-    lam = 1e-6
-    err = pin.log6(ms.sample(v).pose(frame).inverse() * target).vector
-    for _ in range(max_iterations):
-        if np.max(np.abs(err)) < tol:
-            return v
-        J = ms.sample(v).frame_joint_jacobian(frame)
-        while True:   # Levenberg damping: grows when a step does not help (near singular wrists)
-            dv = J.T @ np.linalg.solve(J @ J.T + lam * np.eye(6), err)
-            dv *= min(1.0, 0.3 / max(np.max(np.abs(dv)), 1e-300))
-            trial = np.clip(v + dv, lower, upper)
-            e_new = pin.log6(ms.sample(trial).pose(frame).inverse() * target).vector
-            if np.linalg.norm(e_new) < np.linalg.norm(err) or lam > 1e6:
-                break
-            lam *= 10.0
-        if np.linalg.norm(e_new) >= np.linalg.norm(err):
-            return None
-        v, err, lam = trial, e_new, max(lam / 10.0, 1e-12)
-    return None
-
-
 def joint_limits(robot, joints) -> tuple[np.ndarray, np.ndarray]:
     """The model's position limits (a wrist may turn beyond +-pi); unbounded ones become +-2 pi."""
     ids = [robot.model.joints[robot.joint_id(j)].idx_q for j in joints]
@@ -139,8 +112,11 @@ def plan_configurations(robot, ms, joints, mount, plan: list[PlannedPose], targe
     for k, sd in enumerate(seeds):
         if k >= 40 or len(found) >= 6:
             break
-        q = inverse_kinematics(ms, mount.frame, flange(ref), sd, lower, upper, tol=1e-10, max_iterations=60)
-        if q is not None and np.linalg.svd(ms.sample(q).frame_joint_jacobian(mount.frame),
+        try:
+            q = reading_ik(ms, mount.frame, flange(ref), sd, lower, upper, tol=1e-10, max_iterations=60)
+        except IKFailure:
+            continue      # this seed leads nowhere; the grid has others
+        if np.linalg.svd(ms.sample(q).frame_joint_jacobian(mount.frame),
                                            compute_uv=False)[-1] > min_sigma:
             found.append(q)
     # the branch farthest from every joint limit leaves the sweeps the most room
@@ -171,7 +147,8 @@ def _walk(ms, frame, lower, upper, q0, flange, a: PlannedPose, b: PlannedPose, m
     for i in range(1, steps + 1):
         f = i / steps
         mid = PlannedPose(pin.exp3(f * rel) @ a.rotation, (1 - f) * a.standoff + f * b.standoff, b.fan, b.angle)
-        q = inverse_kinematics(ms, frame, flange(mid), q, lower, upper)
-        if q is None:
+        try:
+            q = reading_ik(ms, frame, flange(mid), q, lower, upper)
+        except IKFailure:
             return None
     return q

@@ -15,7 +15,8 @@ import pinocchio as pin
 
 from robocal.errors import InputError, RobocalError
 from robocal.model.kinematics import ModelState
-from robocal.systems.laser_psd.plans import PlannedPose, beam_frame, inverse_kinematics, joint_limits
+from robocal.model.inverse_kinematics import IKFailure, reading_ik
+from robocal.systems.laser_psd.plans import PlannedPose, beam_frame, joint_limits
 from robocal.residuals.base import basis_from_normal
 
 DEG = np.pi / 180.0
@@ -169,10 +170,12 @@ def acquire(robot, nominal_params, joints, sim: SimRobot, psd: PSD, plan: list[P
                 f = i / steps
                 mid = PlannedPose(pin.exp3(f * rel) @ a.rotation, (1 - f) * a.standoff + f * b.standoff,
                                   pose.fan, pose.angle)
-                q = inverse_kinematics(nominal, frame, beam_frame(c_est, direction, mid, roll) * mount_inv,
-                                       sim.q, lower, upper)
-                if q is None:
-                    raise RobocalError(f"pose (fan {pose.fan}, {np.degrees(pose.angle):+.1f} deg) is unreachable")
+                try:
+                    q = reading_ik(nominal, frame, beam_frame(c_est, direction, mid, roll) * mount_inv, sim.q,
+                                   lower, upper)
+                except IKFailure as exc:
+                    raise RobocalError(f"pose (fan {pose.fan}, {np.degrees(pose.angle):+.1f} deg) is unreachable: "
+                                       f"{exc}") from exc
                 sim.move(q)
                 r, c_est = centre(mid)
         servo.append(r)

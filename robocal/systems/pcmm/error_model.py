@@ -1,13 +1,14 @@
 """The 4-PUU CMM's error model: 52 raw error sources, their exact reduction to 32, and the gauge.
 
-Raw sources per limb (spec §5.1, 13 each): column point a_i (3), axis tilts alpha_i, beta_i (2), slider
-zero offset p0_i (1), slider-side Hooke joint offset d_i (3), link length l_i (1), platform joint b_i (3).
-The readings are physical slider travel minus p0_i. The reduction (spec §5.3) is exact, not first order:
+Raw sources per limb (13 each; docs/pcmm_calibration.md): column point a_i (3), axis tilts alpha_i,
+beta_i (2), slider zero offset p0_i (1), slider-side Hooke joint offset d_i (3), link length l_i (1),
+platform joint b_i (3).
+The readings are physical slider travel minus p0_i. The reduction is exact, not first order:
 a_i, d_i and p0_i e_i are constant vectors that only ever appear summed, A_i = a_i + d_i + p0_i e_i, and the
 z part of that sum only appears together with b_iz (Rz keeps z), so A_iz - A_iz,nominal moves into b_iz:
 b_iz' = b_iz - (A_iz - A_iz,nominal).
 
-Gauge (spec §5.5): distances and radii of a probed artefact are blind to five directions of the 32:
+Gauge (docs/pcmm_calibration.md): distances and radii of a probed artefact are blind to five directions of the 32:
 base translation x, y, z; base rotation about z; and the moving frame's theta zero (b_i rotated about z
 about the stylus axis, b_i - t -> Rz(psi)(b_i - t), which leaves every tip point where it was).
 """
@@ -84,8 +85,8 @@ def reduce(raw: RawPCMM, nominal: PCMMGeometry) -> PCMMGeometry:
 
 
 def random_raw_errors(nominal: RawPCMM, rng: np.random.Generator, scale: float = 1.0) -> RawPCMM:
-    """Truth for tests (spec §12.4): Gaussian errors a 0.3 mm, tilts 0.5 mrad, p0 0.3 mm, d 0.2 mm,
-    b 0.2 mm, l 0.3 mm, times `scale`."""
+    """Truth for tests (the reference run of docs/pcmm_calibration.md): Gaussian errors a 0.3 mm, tilts
+    0.5 mrad, p0 0.3 mm, d 0.2 mm, b 0.2 mm, l 0.3 mm, times `scale`."""
     sig = np.array([3e-4] * 3 + [5e-4] * 2 + [3e-4] + [2e-4] * 3 + [3e-4] + [2e-4] * 3)
     return nominal.with_raw(nominal.raw_vector() + scale * rng.normal(0.0, np.tile(sig, N_LIMBS)))
 

@@ -1,4 +1,5 @@
-"""Closed-form kinematics of the 4-PUU parallel CMM (spec seed-003 §4-5), the fast path.
+"""Closed-form kinematics of the 4-PUU parallel CMM: the engine of the calibration's residual
+(docs/pcmm_calibration.md).
 
 Reduced geometry (SI: m, rad), limb i = 0..3 (named limb1..limb4):
 
@@ -158,7 +159,7 @@ def _rows_A(geo, Y, u):
 def forward_kinematics(geo: PCMMGeometry, rho, y0=None, tol: float = 1e-13, max_iter: int = 50):
     """Poses Y (N, 4) from readings rho (N, 4) by Newton, and the iteration count.
 
-    Stops when every sample's step 2-norm is below `tol` (m and rad mixed, as in the patent).
+    Stops when every sample's step 2-norm is below `tol` (m and rad mixed, as in the source document).
     y0: (4,) or (N, 4) start (default geo.home). AssemblyError when a sample leaves the workspace, J_IK
     turns singular or Newton does not converge in max_iter steps (the message names the sample).
     """

@@ -1,4 +1,4 @@
-"""The 4-PUU parallel CMM of spec seed-003: reference design, URDF writer, artefact and probing plan.
+"""The 4-PUU parallel CMM (docs/pcmm_calibration.md): reference design, URDF writer, artefact and probing plan.
 
 URDF written by `build_urdf` (a tree Pinocchio loads, plus closures robocal reads; units m, rad):
 
@@ -18,7 +18,7 @@ Mapping of the 32 reduced parameters onto robocal's generic kinds (see `generic_
     limb{i}.l           frame placement limb{i}_top.link1.tz   (loop anchor on the rod, rod z along the link)
 
 The raw slider zero offset p0_i is the generic joint offset limb{i}_slide.offset; in the reduced model
-it is merged into b_z (reduction of spec §5.3), so the 32-parameter set leaves it fixed.
+it is merged into b_z (the reduction of robocal.systems.pcmm.error_model), so the 32-parameter set leaves it fixed.
 The second Hooke joint is modelled as a spherical closure (positions are all the 3T1R model needs).
 """
 from __future__ import annotations
@@ -28,12 +28,15 @@ from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
+from lxml import etree
 
 from robocal.errors import InputError
-from robocal.model.parameters import Parameter, ParameterSet
-from robocal.systems.pcmm.error_model import RawPCMM
-from robocal.systems.pcmm.kinematics import LIMB_FIELDS, PCMMGeometry, inverse_kinematics, rz
 from robocal.io.text_files import format_numbers, write_atomic
+from robocal.model.loops_urdf import read_loops
+from robocal.model.parameters import Parameter, ParameterSet
+from robocal.model.robot import Robot
+from robocal.systems.pcmm.error_model import RawPCMM, raw_inverse_kinematics
+from robocal.systems.pcmm.kinematics import LIMB_FIELDS, PCMMGeometry, axis_directions, inverse_kinematics, rz
 
 PHI = np.radians([45.0, 135.0, 225.0, 315.0])
 HOME_Z = -0.65
@@ -49,7 +52,8 @@ _INDEX = {"tx": 0, "ty": 1, "tz": 2, "rx": 3, "ry": 4, "rz": 5}
 
 
 def reference_raw() -> RawPCMM:
-    """Spec §12.4 nominal design with its raw parts: a = 350 mm radius, d = -40 mm, b = 90 mm (+-35 deg)."""
+    """The reference design (docs/pcmm_calibration.md) with its raw parts: a = 350 mm radius, d = -40 mm,
+    b = 90 mm (+-35 deg)."""
     c, s = np.cos(PHI), np.sin(PHI)
     a = 0.35 * np.column_stack([c, s, np.zeros(4)])
     d = -0.04 * np.column_stack([c, s, np.zeros(4)])
@@ -60,7 +64,7 @@ def reference_raw() -> RawPCMM:
 
 
 def reference_geometry() -> PCMMGeometry:
-    """The nominal reduced machine of spec §12.4 (A_i = a_i + d_i)."""
+    """The nominal reduced machine of the reference design (A_i = a_i + d_i)."""
     r = reference_raw()
     return PCMMGeometry(r.a + r.d, r.tilts, r.b, r.lengths, r.stylus, r.tip_radius, r.home)
 
@@ -88,12 +92,12 @@ class Artefact:
 
 
 def reference_artefact() -> Artefact:
-    """Spec §12.4: four 12.7 mm spheres (distances 200.998, 250.000, 155.242, ... mm)."""
+    """The reference artefact: four 12.7 mm spheres (distances 200.998, 250.000, 155.242, ... mm)."""
     return Artefact.from_centres(np.array([[0, 0, 0], [200, 0, 20], [200, 150, 0], [0, 150, 40]]) * 1e-3, 0.0127)
 
 
 def reference_placements() -> tuple[np.ndarray, np.ndarray]:
-    """Spec §12.4: 8 artefact centroids (8, 3) and yaws (8,)."""
+    """The reference run's 8 artefact centroids (8, 3) and yaws (8,)."""
     off = np.array([[0, 0, 0], [60, 40, -40], [-50, 60, 30], [40, -60, -60], [-60, -40, 20], [0, 0, -80],
                     [30, 30, 40], [-30, 20, -20]]) * 1e-3
     return off + np.array([0.0, 0.0, HOME_Z]), np.array([0.0, 0.5, 1.2, 2.0, 2.8, 0.9, -0.7, -1.8])
@@ -127,13 +131,12 @@ def cap_directions(n: int, max_polar: float = np.radians(75.0)) -> np.ndarray:
 
 def simulate_probing(true_machine, artefact: Artefact, centroids, yaws, rng: np.random.Generator,
                      n_hits: int = 9, theta_range: float = 0.3, noise: float = 0.0) -> ProbeHits:
-    """Hits of the true machine on every sphere of every placement (spec §6, §12.4).
+    """Hits of the true machine on every sphere of every placement (docs/pcmm_calibration.md).
 
     true_machine: PCMMGeometry or RawPCMM (anything with the matching IK; RawPCMM uses the raw model).
     Tip centres lie on the sphere of radius r_ref + r_tip; theta is uniform in +-theta_range per hit;
     `noise` is the standard deviation (m) of independent Gaussian axis-reading noise.
     """
-    from robocal.systems.pcmm.error_model import raw_inverse_kinematics
     ik = raw_inverse_kinematics if isinstance(true_machine, RawPCMM) else inverse_kinematics
     dirs = cap_directions(n_hits)
     rows, plc, sph = [], [], []
@@ -206,6 +209,14 @@ def write_urdf(geo: PCMMGeometry, path, name: str = "pcmm_4puu") -> Path:
     return write_atomic(path, build_urdf(geo, name))
 
 
+def machine_robot(geo: PCMMGeometry, name: str = "pcmm_4puu") -> Robot:
+    """The robot of `build_urdf(geo)`, built in memory (no file): the machine a generic Problem is about."""
+    text = build_urdf(geo, name)
+    robot = Robot(model=pin.buildModelFromXML(text), urdf_text=text, name=name)
+    robot.loops = read_loops(robot, etree.fromstring(text.encode("utf-8")))
+    return robot
+
+
 def generic_parameters() -> tuple[ParameterSet, list[str]]:
     """robocal ParameterSet with the 32 generic parameters of the reduced model (all free, value 0), and
     their names in the reduced order (`pcmm_kinematics.reduced_names`)."""
@@ -227,7 +238,6 @@ def urdf_configuration(robot, geo: PCMMGeometry, Y: np.ndarray, rho: np.ndarray)
     for k, name in enumerate(("platform_x", "platform_y", "platform_z", "platform_rz")):
         q[m.joints[m.getJointId(name)].idx_q] = Y[k] - (geo.home[2] if k == 2 else 0.0)
     R = rz(Y[3])
-    from robocal.systems.pcmm.kinematics import axis_directions
     e = axis_directions(geo.tilts)[0]
     for i in range(4):
         slide = pin.utils.rotate("x", geo.tilts[i, 0]) @ pin.utils.rotate("y", geo.tilts[i, 1])

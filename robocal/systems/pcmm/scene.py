@@ -1,11 +1,12 @@
 """The scene of a parallel-CMM self-calibration (`robocal.systems.pcmm.calibration.calibrate_pcmm`).
 
-The fast path has its own kinematics and no CalibrationResult, so the scene is built from the equivalent
-generic problem: the URDF of the nominal machine (robocal.systems.pcmm.machine.build_urdf, loops closed by
+The calibration's problem computes the tips in closed form (its parameters are the reduced ones, not
+placements of a model to draw), so the scene is built from the equivalent URDF problem: the URDF of the
+nominal machine (robocal.systems.pcmm.machine.build_urdf, loops closed by
 robocal's assembly), the sphere-artefact residual over the same hits, and placement parameters whose
 values make the URDF model the nominal (before) and the identified (after) machine exactly: each slide
 joint's placement is moved by log6 of its nominal-to-identified change (position and tilt), each loop
-anchor by its b_i or l_i change. The identification summary is the fast path's own (rank 27 of 32).
+anchor by its b_i or l_i change. The identification summary is the calibration's (rank 27 of 32).
 
     write_pcmm_scene(calibration, hits, artefact, "out/")    # then: robocal view out/ --html scene.html
 """
@@ -50,7 +51,7 @@ def pcmm_parameters(nominal: PCMMGeometry, geo: PCMMGeometry) -> ParameterSet:
     return ps
 
 
-def pcmm_problem(nominal: PCMMGeometry, geo: PCMMGeometry, hits: ProbeHits, artefact: Artefact, urdf_path,
+def urdf_problem(nominal: PCMMGeometry, geo: PCMMGeometry, hits: ProbeHits, artefact: Artefact, urdf_path,
                  poses: np.ndarray | None = None) -> Problem:
     """The generic problem of the hits with the model at `geo`; writes the nominal URDF to `urdf_path`.
 
@@ -68,8 +69,8 @@ def pcmm_problem(nominal: PCMMGeometry, geo: PCMMGeometry, hits: ProbeHits, arte
 
 def pcmm_scene_data(calibration, hits: ProbeHits, artefact: Artefact, urdf_path) -> dict:
     """The scene (robocal.viz.scene layout) of a PCMMCalibration: before = nominal, after = identified."""
-    poses = calibration.evaluation.poses if calibration.evaluation is not None else None
-    problem = pcmm_problem(calibration.nominal, calibration.geometry, hits, artefact, urdf_path, poses)
+    poses = calibration.poses
+    problem = urdf_problem(calibration.nominal, calibration.geometry, hits, artefact, urdf_path, poses)
     s = np.asarray(calibration.singular_values, float)
     rank = int(calibration.rank)
     ident = {"singular_values": s.tolist(), "rank": rank, "requested": N_REDUCED, "rtol": None,
