@@ -163,7 +163,7 @@ def build_urdf(geo: PCMMGeometry, name: str = "pcmm_4puu") -> str:
     lim = '<limit lower="-1.5707963267948966" upper="1.5707963267948966" effort="0" velocity="0"/>'
     slide_lim = '<limit lower="-1" upper="1" effort="0" velocity="0"/>'
     out = ['<?xml version="1.0"?>', f'<robot name="{name}">',
-           "  <!-- Written by robocal.systems.pcmm.machine.build_urdf (spec seed-003). Units: m, rad.",
+           "  <!-- Written by robocal.systems.pcmm.machine.build_urdf (docs/pcmm_calibration.md). Units: m, rad.",
            "       A_i = origin xyz of limb{i}_slide, tilts = its rpy (Rx(alpha) Ry(beta)); b_i = link2 xyz of",
            "       loop_joint limb{i}_top (moving frame); l_i = link1 z of it. Platform origin z is offset by",
            f"       {format_numbers(geo.home[2])} m (the home height). -->",
