@@ -10,9 +10,9 @@ s are the CAD body's natural scales (mass m, first moments m l, inertias m l^2, 
 body's RMS mass distance from its joint, sqrt(tr Sigma / m)); lambda = 1 weighs the prior like the
 whole data set. `choose_prior_weight` picks lambda from the data: fit on the earlier part of the
 training window, score the weighted torque error on its later part, keep the best of a log grid.
-(A log-Cholesky parametrisation, log_cholesky.py, with scipy least_squares was tried first: when
-the optimum puts a body on the cone's boundary it needs infinite log values and did not converge
-in 5000 evaluations on the TIAGo log; see docs/dynamics_tiago.md.)
+(A log-Cholesky parametrisation (Rucker & Wensing 2022) solved by scipy least_squares was tried
+first: when the optimum puts a body on the cone's boundary it needs infinite log values, and it had
+not converged after 5000 evaluations on the TIAGo log; see docs/dynamics_tiago.md.)
 """
 from __future__ import annotations
 

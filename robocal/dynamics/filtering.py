@@ -64,8 +64,9 @@ class SignalOptions:
 
 @dataclass
 class ProcessedLog:
-    """Uniformly sampled, filtered, decimated log: t (T,) s, q, v, a, effort (T, n).
-    fs_raw: the grid's rate (Hz); cutoff_hz; decimation; choices: one sentence per step;
+    """Uniformly sampled, filtered log at the grid's full rate (edges trimmed): t (T,) s, q, v, a,
+    effort (T, n). fs_raw: the grid's rate (Hz); cutoff_hz; decimation: the factor the
+    identification applies after parallel filtering (`decimate`); order: the filter's; choices: one sentence per step;
     velocity_check: per joint RMS of (differentiated - logged) filtered velocities, the delay (s)
     of the logged velocities behind the differentiated positions maximising their correlation, and
     the RMS of the logged velocities' high-frequency part."""
@@ -78,8 +79,14 @@ class ProcessedLog:
     fs_raw: float
     cutoff_hz: float
     decimation: int
+    order: int
     choices: list[str] = field(default_factory=list)
     velocity_check: dict = field(default_factory=dict)
+
+
+def parallel_filter(proc: ProcessedLog, columns: np.ndarray) -> np.ndarray:
+    """The log's low-pass applied along axis 0 of `columns` (T, ...) at its full rate, then decimated."""
+    return lowpass(columns, proc.fs_raw, proc.cutoff_hz, proc.order)[::proc.decimation]
 
 
 def uniform_grid(t: np.ndarray) -> tuple[np.ndarray, float]:
@@ -145,7 +152,6 @@ def process_log(t: np.ndarray, q: np.ndarray, v: np.ndarray, effort: np.ndarray,
     keep = slice(trim, len(grid) - trim)
     check = _velocity_check(v_num[keep], vf[keep], vg[keep], dt)
     k = int(opt.decimate) if opt.decimate is not None else max(1, int(np.floor(fs / (2 * opt.nyquist_ratio * fc))))
-    pick = np.arange(len(grid))[keep][::k]
     choices = [
         f"resampled {len(t)} samples (steps {np.diff(t).min() * 1e3:.3g} to {np.diff(t).max() * 1e3:.3g} ms) "
         f"onto a uniform {dt * 1e3:.4g} ms grid: cubic spline for positions and velocities, linear for efforts",
@@ -153,10 +159,12 @@ def process_log(t: np.ndarray, q: np.ndarray, v: np.ndarray, effort: np.ndarray,
         f"zero-phase Butterworth low-pass, order {opt.order} (x2 by sosfiltfilt), on positions, velocities and efforts",
         f"velocities: {opt.velocity_source}; accelerations: central differences of those velocities",
         f"{trim} samples ({trim * dt:.3g} s, {opt.edge_periods:g} cut-off periods) trimmed at each end",
+        "parallel filtering: the regressor columns, computed at every grid sample, get the same low-pass "
+        "as the torques before decimation (a Coulomb step is then smoothed alike on both sides)",
         f"decimated by {k} to {fs / k:.4g} Hz (Nyquist {fs / k / 2:.3g} Hz >= {opt.nyquist_ratio:g} x cut-off)"
         if opt.decimate is None else f"decimated by {k} (configured) to {fs / k:.4g} Hz",
     ]
-    return ProcessedLog(grid[pick], qf[pick], v_use[pick], a[pick], ef[pick], fs, fc, k, choices, check)
+    return ProcessedLog(grid[keep], qf[keep], v_use[keep], a[keep], ef[keep], fs, fc, k, opt.order, choices, check)
 
 
 def _velocity_check(v_num: np.ndarray, v_filtered: np.ndarray, v_raw: np.ndarray, dt: float) -> dict:

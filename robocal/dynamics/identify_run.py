@@ -16,7 +16,7 @@ from scipy.stats import chi2
 
 from robocal.dynamics.consistent_fit import ConsistentFit, PriorWeightChoice, choose_prior_weight, fit_consistent
 from robocal.dynamics.external_force import ExternalForceEstimator
-from robocal.dynamics.filtering import ProcessedLog, process_log
+from robocal.dynamics.filtering import ProcessedLog, parallel_filter, process_log
 from robocal.dynamics.identification import base_values_of
 from robocal.dynamics.identify_config import (IdentifyConfig, load_identify_config, model_columns, reduced_model,
                                               velocity_index)
@@ -32,7 +32,8 @@ MODELS = ("cad", "ols", "consistent")
 @dataclass
 class IdentifyResult:
     """config; model: the reduced CAD model; recorded: recorded joint names (model order);
-    processed: the filtered log (all samples); train, check: masks over its samples; ols, consistent,
+    processed: the filtered log (full rate); train, check: masks over its decimated samples
+    (processed.t[::processed.decimation]); ols, consistent,
     prior: the fits; consistency: {body: (smallest pseudo-inertia eigenvalue, realisable)} of the
     consistent model; validation: {model: {'rmse': [...], 'percent_of_range': [...]}} on the
     validation window; training_rms: {model: [...]}; torque_range: per joint on the validation
@@ -86,19 +87,22 @@ def identify_from_config(path_or_dict, base_dir=None) -> IdentifyResult:
     tau = log.effort[:, rec_cols] * scale + offset
     proc = process_log(log.t, model_columns(model, cfg.joints, log.q), model_columns(model, cfg.joints, log.v),
                        tau, cfg.signal)
-    train = (proc.t >= cfg.train[0]) & (proc.t < cfg.train[1])
-    check = (proc.t >= cfg.validate[0]) & (proc.t < cfg.validate[1])
+    width = cfg.coulomb_width * np.sqrt(np.mean(proc.v[_in(proc.t, cfg.train)][:, rec_idx] ** 2, axis=0))
+    # parallel filtering: regressor at the full rate, same low-pass as the torques, then decimation
+    reg_all = build_regressor(model, proc.q, proc.v, proc.a, rec_idx, cfg.terms, width).transformed(
+        lambda X: parallel_filter(proc, X))
+    t_dec = proc.t[::proc.decimation]
+    tau_dec = proc.effort[::proc.decimation]
+    train, check = _in(t_dec, cfg.train), _in(t_dec, cfg.validate)
     if train.sum() < 10 or check.sum() < 10:
         raise InputError(f"after filtering, {train.sum()} training and {check.sum()} validation samples remain; "
                          "widen the windows", source=cfg.source, field="windows")
 
-    width = cfg.coulomb_width * np.sqrt(np.mean(proc.v[train][:, rec_idx] ** 2, axis=0))
-
     def regressor(mask) -> Regressor:
-        return build_regressor(model, proc.q[mask], proc.v[mask], proc.a[mask], rec_idx, cfg.terms, width)
+        return reg_all.samples(mask)
 
     reg_train, reg_check = regressor(train), regressor(check)
-    tau_train, tau_check = proc.effort[train], proc.effort[check]
+    tau_train, tau_check = tau_dec[train], tau_dec[check]
     ols = fit_base(reg_train, tau_train)
     if ols.selection.rank == 0:
         raise InputError("the training window identifies no parameter", source=cfg.files["position"].name,
@@ -108,13 +112,13 @@ def identify_from_config(path_or_dict, base_dir=None) -> IdentifyResult:
     idx = np.flatnonzero(train)
     first, second = np.zeros_like(train), np.zeros_like(train)
     first[idx[:n_fit]], second[idx[n_fit:]] = True, True
-    prior = choose_prior_weight(regressor(first), proc.effort[first], regressor(second), proc.effort[second],
+    prior = choose_prior_weight(regressor(first), tau_dec[first], regressor(second), tau_dec[second],
                                 ols.sigma, cad, cfg.prior_grid, cfg.prior_split)
     consistent, _ = fit_consistent(reg_train, tau_train, ols.sigma, cad, prior.chosen, prior.state)
     predict = {"cad": lambda reg: (reg.X[:, :reg.n_inertial] @ cad).reshape(-1, len(rec_idx)),
                "ols": ols.predict, "consistent": consistent.predict}
     t_range = (tau_check.max(axis=0) - tau_check.min(axis=0)).tolist()
-    validation, training_rms, curves = {}, {}, {"t": proc.t[check], "measured": tau_check}
+    validation, training_rms, curves = {}, {}, {"t": t_dec[check], "measured": tau_check}
     for name, f in predict.items():
         pred = f(reg_check)
         rmse = np.sqrt(np.mean((pred - tau_check) ** 2, axis=0))
@@ -126,7 +130,8 @@ def identify_from_config(path_or_dict, base_dir=None) -> IdentifyResult:
                    for b, p in bodies.items()}
     beta_c = base_values_of(ols.selection, consistent.params)
     within = _within_noise(reg_train, tau_train, ols, consistent, beta_c)
-    wrench = _wrench_rms(cfg, model, proc, check, rec_idx, {k: curves[k] for k in MODELS}, tau_check)
+    wrench = _wrench_rms(cfg, model, proc.q[::proc.decimation][check], rec_idx, {k: curves[k] for k in MODELS},
+                         tau_check)
     return IdentifyResult(cfg, model, recorded, proc, train, check, ols, consistent, prior, consistency, validation,
                           training_rms, t_range, within, wrench, curves)
 
@@ -166,7 +171,11 @@ def _within_noise(reg: Regressor, tau: np.ndarray, ols: BaseFit, fit: Consistent
             "max_base_deviation_in_std": float(np.max(np.abs(beta_c - ols.values) / ols.std))}
 
 
-def _wrench_rms(cfg, model, proc, mask, rec_idx, predictions, measured) -> dict:
+def _in(t: np.ndarray, window: tuple[float, float]) -> np.ndarray:
+    return (t >= window[0]) & (t < window[1])
+
+
+def _wrench_rms(cfg, model, q, rec_idx, predictions, measured) -> dict:
     """RMS (N) per world axis of the force at the wrench frame that explains the torque the model
     misses (measured - predicted, recorded joints only; force only: the recorded joints are too few
     to resolve a moment as well)."""
@@ -174,7 +183,7 @@ def _wrench_rms(cfg, model, proc, mask, rec_idx, predictions, measured) -> dict:
     if not model.existFrame(name):
         raise InputError(f"frame '{name}' is not in the model", source=cfg.source, field="wrench.frame")
     est = ExternalForceEstimator(model, model.getFrameId(name))
-    J = est.jacobians(proc.q[mask])[:, :, rec_idx]
+    J = est.jacobians(q)[:, :, rec_idx]
     mapper = WrenchMapper(force_only=True)
     return {k: np.sqrt(np.mean(mapper.map(J, measured - pred).force ** 2, axis=0)).tolist()
             for k, pred in predictions.items()} | {"frame": name}

@@ -51,27 +51,33 @@ class AdmmResult:
 
 
 def solve_psd_qp(H: np.ndarray, q: np.ndarray, n_bodies: int, lower: np.ndarray, warm: tuple | None = None,
-                 start: np.ndarray | None = None, tol: float = 1e-6, max_iterations: int = 20000) -> AdmmResult:
+                 start: np.ndarray | None = None, tol: float = 1e-5, max_iterations: int = 20000) -> AdmmResult:
     """Minimise 1/2 x^T H x - q^T x with the constraints of the module docstring.
-    lower: (n_extra,) bounds on phi (-inf where free); warm: `state` of a previous result;
+    lower: (n_extra,) bounds on phi (-inf where free); warm: `state` of a previous result (same
+    problem size; its scaling is kept);
     start: a first guess of x when there is no warm state (e.g. the CAD values)."""
     n_in = 10 * n_bodies
     n = H.shape[0]
-    M = np.eye(n)
-    for b in range(n_bodies):
-        M[10 * b:10 * b + 10, 10 * b:10 * b + 10] = TO_SVEC
-    MtM = M.T @ M
     if warm is None:
-        z0 = _project(M @ (np.zeros(n) if start is None else start), n_bodies, lower)
-        warm = (z0, np.zeros(n), float(np.trace(H) / np.trace(MtM)))
-    z, u, rho = warm
+        scale = _scaling(H, n_bodies)
+    else:
+        scale = warm[3]
+    M = np.diag(scale)
+    for b in range(n_bodies):
+        M[10 * b:10 * b + 10, 10 * b:10 * b + 10] = scale[10 * b] * TO_SVEC
+    MtM = M.T @ M
+    low = lower * scale[n_in:]                # the box in z coordinates (positive scaling)
+    if warm is None:
+        z0 = _project(M @ (np.zeros(n) if start is None else start), n_bodies, low)
+        warm = (z0, np.zeros(n), 1.0, scale)
+    z, u, rho, _ = warm
     factor = scipy.linalg.cho_factor(H + rho * MtM)
     scale_p = scale_d = 1.0
     for it in range(1, max_iterations + 1):
         x = scipy.linalg.cho_solve(factor, q + rho * M.T @ (z - u))
         Mx = M @ x
         z_old = z
-        z = _project(Mx + u, n_bodies, lower)
+        z = _project(Mx + u, n_bodies, low)
         u = u + Mx - z
         r = np.linalg.norm(Mx - z)
         s = rho * np.linalg.norm(M.T @ (z - z_old))
@@ -84,11 +90,23 @@ def solve_psd_qp(H: np.ndarray, q: np.ndarray, n_bodies: int, lower: np.ndarray,
             rho *= ratio
             u /= ratio
             factor = scipy.linalg.cho_factor(H + rho * MtM)
-    x_out = z.copy()                       # the projected point: feasible by construction
+    x_out = z / scale                       # the projected point: feasible by construction
     for b in range(n_bodies):
-        x_out[10 * b:10 * b + 10] = FROM_SVEC @ z[10 * b:10 * b + 10]
+        x_out[10 * b:10 * b + 10] = FROM_SVEC @ z[10 * b:10 * b + 10] / scale[10 * b]
     return AdmmResult(x_out, it, float(r / scale_p), float(s / scale_d),
-                      bool(r <= tol * scale_p and s <= tol * scale_d), (z, u, rho))
+                      bool(r <= tol * scale_p and s <= tol * scale_d), (z, u, rho, scale))
+
+
+def _scaling(H: np.ndarray, n_bodies: int) -> np.ndarray:
+    """Diagonal preconditioning compatible with the cones: one positive factor per body (the PSD cone
+    is invariant under it) and one per extra term (the box too), so that M^T M matches H's diagonal."""
+    d = np.sqrt(np.maximum(np.diag(H), 0.0))
+    d[d == 0] = 1.0
+    norm = np.linalg.norm(TO_SVEC, axis=0)
+    for b in range(n_bodies):
+        sl = slice(10 * b, 10 * b + 10)
+        d[sl] = np.exp(np.mean(np.log(d[sl] / norm)))
+    return d
 
 
 def _project(v: np.ndarray, n_bodies: int, lower: np.ndarray) -> np.ndarray:

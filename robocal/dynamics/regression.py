@@ -35,6 +35,18 @@ class Regressor:
     def split(self, params: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return params[: self.n_inertial], params[self.n_inertial:]
 
+    def samples(self, mask: np.ndarray) -> "Regressor":
+        """The rows of the samples selected by a boolean mask over samples."""
+        nr = len(self.recorded)
+        X = self.X.reshape(-1, nr, self.X.shape[1])[mask].reshape(-1, self.X.shape[1])
+        return Regressor(X, self.names, self.n_inertial, self.recorded)
+
+    def transformed(self, function) -> "Regressor":
+        """A regressor whose (T, nr, columns) array went through `function` along its sample axis."""
+        nr = len(self.recorded)
+        X = function(self.X.reshape(-1, nr, self.X.shape[1]))
+        return Regressor(X.reshape(-1, self.X.shape[1]), self.names, self.n_inertial, self.recorded)
+
 
 def build_regressor(model: pin.Model, q: np.ndarray, v: np.ndarray, a: np.ndarray, recorded: list[int],
                     terms: tuple[str, ...] = EXTRA_TERMS, coulomb_width: float | np.ndarray = 0.01) -> Regressor:
