@@ -105,7 +105,7 @@ def identify_from_config(path_or_dict, base_dir=None) -> IdentifyResult:
     tau_train, tau_check = tau_dec[train], tau_dec[check]
     ols = fit_base(reg_train, tau_train)
     if ols.selection.rank == 0:
-        raise InputError("the training window identifies no parameter", source=cfg.files["position"].name,
+        raise InputError("the training window identifies no parameter", source=str(cfg.files["position"]),
                          field="windows.train")
     cad = parameter_vector(model)
     n_fit = int(round(cfg.prior_split * train.sum()))
