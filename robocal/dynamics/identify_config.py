@@ -121,6 +121,8 @@ def load_identify_config(path_or_dict, base_dir: str | Path | None = None) -> Id
             wrench.get("frame", None, types=str), None if out is None else base / str(out), raw)
     except TypeError as exc:
         raise InputError(f"bad value: {exc}", source=source, field="signal") from None
+    except InputError as exc:              # SignalOptions knows the key, not the file
+        raise InputError(exc.reason, source=source, field=exc.field) from None
     if not cfg.coulomb_width > 0:
         raise model.error("coulomb_width must be > 0", "coulomb_width")
     if not 0.3 <= cfg.prior_split < 1:
