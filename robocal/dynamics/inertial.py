@@ -42,8 +42,9 @@ def torque_regressor(model: pin.Model, q: np.ndarray, v: np.ndarray, a: np.ndarr
 
 
 def pseudo_inertia(params10: np.ndarray) -> np.ndarray:
-    """4x4 pseudo-inertia [[Sigma, h], [h^T, m]], Sigma = tr(I)/2 I3 - I; positive definite iff the
-    body is physically realisable (Wensing, Kim, Slotine 2017)."""
+    """4x4 pseudo-inertia [[Sigma, h], [h^T, m]], Sigma = tr(I)/2 I3 - I; positive semidefinite
+    iff the body is physically realisable, positive definite iff by a non-degenerate body (Wensing,
+    Kim, Slotine 2017)."""
     m, hx, hy, hz, ixx, ixy, iyy, ixz, iyz, izz = params10
     inertia = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
     out = np.zeros((4, 4))
@@ -57,3 +58,19 @@ def physical_consistency(model: pin.Model, params: np.ndarray) -> dict[str, floa
     """Smallest eigenvalue of each body's pseudo-inertia (> 0: physically consistent), by joint name."""
     p = np.asarray(params, float).reshape(model.njoints - 1, 10)
     return {model.names[j]: float(np.linalg.eigvalsh(pseudo_inertia(p[j - 1]))[0]) for j in range(1, model.njoints)}
+
+
+def params_from_pseudo_inertia(J: np.ndarray) -> np.ndarray:
+    """Inverse of `pseudo_inertia` (linear): [m, h, Ixx, Ixy, Iyy, Ixz, Iyz, Izz] with I = tr(Sigma) I3 - Sigma."""
+    sigma = J[:3, :3]
+    inertia = np.trace(sigma) * np.eye(3) - sigma
+    return np.array([J[3, 3], *J[:3, 3], inertia[0, 0], inertia[0, 1], inertia[1, 1], inertia[0, 2],
+                     inertia[1, 2], inertia[2, 2]])
+
+
+def is_physically_consistent(params10: np.ndarray, rtol: float = 1e-9) -> bool:
+    """True iff the body's pseudo-inertia is positive semidefinite, which is necessary and sufficient
+    for the 10 parameters to be those of some mass distribution (Wensing, Kim, Slotine 2017).
+    Eigenvalues down to -rtol x the largest one are taken as rounding of a zero."""
+    eig = np.linalg.eigvalsh(pseudo_inertia(np.asarray(params10, float)))
+    return bool(eig[0] >= -rtol * max(abs(eig[-1]), np.finfo(float).tiny))

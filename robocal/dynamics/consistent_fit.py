@@ -1,0 +1,112 @@
+"""Physically consistent identification: every body realisable, the CAD values as a prior.
+
+Unknowns: every body's 10 inertial parameters pi and the extra terms phi (friction, offsets, rotor
+inertia). The fit minimises
+    sum_rows (w (X_in pi + X_ex phi - tau))^2 + lambda (n_rows / n_prior) sum ((pi - pi_cad) / s)^2
+subject to every body's pseudo-inertia positive semidefinite (the necessary and sufficient
+condition for pi to be a mass distribution) and Coulomb friction, viscous friction and rotor
+inertia >= 0. It is convex; psd_admm.py solves it and returns a point of the constraint set.
+s are the CAD body's natural scales (mass m, first moments m l, inertias m l^2, with l the CAD
+body's RMS mass distance from its joint, sqrt(tr Sigma / m)); lambda = 1 weighs the prior like the
+whole data set. `choose_prior_weight` picks lambda from the data: fit on the earlier part of the
+training window, score the weighted torque error on its later part, keep the best of a log grid.
+(A log-Cholesky parametrisation (Rucker & Wensing 2022) solved by scipy least_squares was tried
+first: when the optimum puts a body on the cone's boundary it needs infinite log values, and it had
+not converged after 5000 evaluations on the TIAGo log; see docs/dynamics_tiago.md.)
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from robocal.dynamics.inertial import pseudo_inertia
+from robocal.dynamics.psd_admm import solve_psd_qp
+from robocal.dynamics.regression import Regressor, row_weights
+from robocal.errors import InputError
+
+NONNEGATIVE_TERMS = ("coulomb", "viscous", "armature")
+DEFAULT_GRID = tuple(10.0 ** np.arange(-4, 2.01, 0.5))     # half-decade steps
+
+
+@dataclass
+class ConsistentFit:
+    """inertial (10 nb,) physically consistent parameters; extra (n_extra,) in the regressor's
+    column order; prior_weight lambda; iterations: ADMM iterations; data_cost: the data part of
+    the objective (weighted units); converged: ADMM met its tolerance."""
+
+    inertial: np.ndarray
+    extra: np.ndarray
+    prior_weight: float
+    iterations: int
+    data_cost: float
+    converged: bool
+
+    @property
+    def params(self) -> np.ndarray:
+        return np.r_[self.inertial, self.extra]
+
+    def predict(self, reg: Regressor) -> np.ndarray:
+        """Joint torques (T, nr) of the identified model on the recorded joints."""
+        return (reg.X @ self.params).reshape(-1, len(reg.recorded))
+
+
+def prior_scales(cad: np.ndarray) -> np.ndarray:
+    """Per-parameter scales s (10 nb,) from the CAD bodies (see module docstring)."""
+    out = []
+    for p in np.asarray(cad, float).reshape(-1, 10):
+        m = max(p[0], 1e-6)
+        length = np.sqrt(max(np.trace(pseudo_inertia(p)[:3, :3]) / m, 1e-6))
+        out.append(np.r_[m, np.full(3, m * length), np.full(6, m * length**2)])
+    return np.concatenate(out)
+
+
+def fit_consistent(reg: Regressor, tau: np.ndarray, sigma: np.ndarray, cad: np.ndarray, prior_weight: float,
+                   warm: tuple | None = None) -> tuple[ConsistentFit, tuple]:
+    """Consistent fit at one prior weight (psd_admm.py). warm: the solver state of a previous fit.
+    Returns the fit and its solver state."""
+    tau = np.asarray(tau, float)
+    n_in = reg.n_inertial
+    if len(cad) != n_in:
+        raise InputError(f"CAD parameters have {len(cad)} values, the regressor {n_in}", field="inertial")
+    w = row_weights(sigma, len(tau))
+    A = reg.X * w[:, None]
+    y = tau.reshape(-1) * w
+    names = reg.names[n_in:]
+    lower = np.array([0.0 if n.rsplit(".", 1)[-1] in NONNEGATIVE_TERMS else -np.inf for n in names])
+    prior = np.r_[(len(y) / n_in) * prior_weight / prior_scales(cad) ** 2, np.zeros(len(names))]
+    H = A.T @ A + np.diag(prior)
+    q = A.T @ y + prior * np.r_[cad, np.zeros(len(names))]
+    sol = solve_psd_qp(H, q, n_in // 10, lower, warm, start=np.r_[cad, np.maximum(0.0, lower)])
+    data_cost = float(np.sum((A @ sol.x - y) ** 2))
+    return ConsistentFit(sol.x[:n_in], sol.x[n_in:], float(prior_weight), sol.iterations, data_cost,
+                         sol.converged), sol.state
+
+
+@dataclass
+class PriorWeightChoice:
+    """grid of lambda values, score (weighted mean-square torque error on the held-out part of the
+    training window) per value, the chosen lambda, the fitted share of the training window and
+    the solver state at the chosen lambda (a warm start for the final fit)."""
+
+    grid: list[float]
+    scores: list[float]
+    chosen: float
+    split_fraction: float
+    state: tuple | None = None
+
+
+def choose_prior_weight(reg_fit: Regressor, tau_fit: np.ndarray, reg_check: Regressor, tau_check: np.ndarray,
+                        sigma: np.ndarray, cad: np.ndarray, grid=DEFAULT_GRID,
+                        split_fraction: float = 0.75) -> PriorWeightChoice:
+    """Fit on (reg_fit, tau_fit), score on (reg_check, tau_check) for each lambda of `grid` (from the
+    largest: each fit warm-starts the next); ties go to the larger lambda (closer to CAD)."""
+    scores, states, start = {}, {}, None
+    for lam in sorted(grid, reverse=True):
+        fit, start = fit_consistent(reg_fit, tau_fit, sigma, cad, lam, start)
+        err = (fit.predict(reg_check) - tau_check) / sigma
+        scores[lam], states[lam] = float(np.mean(err**2)), start
+    best = min(scores.values())
+    chosen = max(lam for lam, s in scores.items() if s <= best * (1 + 1e-9))
+    ordered = sorted(scores)
+    return PriorWeightChoice(ordered, [scores[k] for k in ordered], chosen, split_fraction, states[chosen])

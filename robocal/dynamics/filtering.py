@@ -1,0 +1,178 @@
+"""Signal processing of an irregularly sampled joint log before identification.
+
+Steps, each reported in `ProcessedLog.choices` so that a result says how its data were made:
+1. resample onto a uniform grid at the median step: a cubic spline for positions and velocities
+   (smooth signals), linear interpolation for efforts (noisy: a spline would overshoot). A zero-phase
+   IIR filter needs a uniform step; the interpolation error sits far above the cut-off and is
+   removed with the noise by step 3.
+2. cut-off from the spectrum: the Welch spectrum of each joint's de-meaned logged velocity, the
+   smallest frequency holding `power_fraction` of its power, the largest over the joints, times
+   `cutoff_margin` (velocities weigh the high harmonics that accelerations need more than positions do).
+3. zero-phase Butterworth low-pass (scipy.signal.butter + sosfiltfilt: no lag between the
+   regressor and the torques), the same filter on positions, velocities and efforts (parallel
+   filtering keeps them consistent).
+4. accelerations by central differences of the filtered velocities (logged or differentiated
+   positions, `velocity_source`); the two velocity sources are compared in `velocity_check`.
+5. the filter's edge transients trimmed (`edge_periods` / cut-off seconds at both ends), then
+   decimation by an integer factor keeping the new Nyquist frequency >= `nyquist_ratio` x cut-off.
+See docs/dynamics_tiago.md.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.interpolate import CubicSpline
+from scipy.signal import butter, sosfiltfilt, welch
+
+from robocal.errors import InputError
+
+VELOCITY_SOURCES = ("logged", "differentiated")
+#: largest delay (s) looked for between logged and differentiated velocities
+MAX_LAG_S = 0.5
+
+
+@dataclass
+class SignalOptions:
+    """cutoff_hz: None = from the spectrum (rule in the module docstring); power_fraction,
+    cutoff_margin: that rule's constants; order: Butterworth order (doubled by filtfilt);
+    decimate: integer factor, None = largest keeping Nyquist >= nyquist_ratio x cut-off;
+    velocity_source: 'logged' (filtered logged velocities) or 'differentiated' (of filtered positions);
+    edge_periods: cut-off periods trimmed at each end of the log."""
+
+    cutoff_hz: float | None = None
+    power_fraction: float = 0.999
+    cutoff_margin: float = 2.0
+    order: int = 4
+    decimate: int | None = None
+    nyquist_ratio: float = 2.0
+    velocity_source: str = "logged"
+    edge_periods: float = 2.0
+
+    def __post_init__(self):
+        if self.velocity_source not in VELOCITY_SOURCES:
+            raise InputError(f"velocity_source must be one of {VELOCITY_SOURCES}, got '{self.velocity_source}'",
+                             source="config", field="signal.velocity_source")
+        if not 0 < self.power_fraction < 1:
+            raise InputError("power_fraction must lie in (0, 1)", source="config", field="signal.power_fraction")
+        if self.cutoff_margin < 1 or self.order < 1 or self.nyquist_ratio < 1 or self.edge_periods < 0:
+            raise InputError("cutoff_margin, order and nyquist_ratio must be >= 1, edge_periods >= 0",
+                             source="config", field="signal")
+        if self.decimate is not None and int(self.decimate) < 1:
+            raise InputError("decimate must be a positive integer", source="config", field="signal.decimate")
+
+
+@dataclass
+class ProcessedLog:
+    """Uniformly sampled, filtered log at the grid's full rate (edges trimmed): t (T,) s, q, v, a,
+    effort (T, n). fs_raw: the grid's rate (Hz); cutoff_hz; decimation: the factor the
+    identification applies after parallel filtering (`decimate`); order: the filter's; choices: one sentence per step;
+    velocity_check: per joint RMS of (differentiated - logged) filtered velocities, the delay (s)
+    of the logged velocities behind the differentiated positions maximising their correlation, and
+    the RMS of the logged velocities' high-frequency part."""
+
+    t: np.ndarray
+    q: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    effort: np.ndarray
+    fs_raw: float
+    cutoff_hz: float
+    decimation: int
+    order: int
+    choices: list[str] = field(default_factory=list)
+    velocity_check: dict = field(default_factory=dict)
+
+
+def parallel_filter(proc: ProcessedLog, columns: np.ndarray) -> np.ndarray:
+    """The log's low-pass applied along axis 0 of `columns` (T, ...) at its full rate, then decimated."""
+    return lowpass(columns, proc.fs_raw, proc.cutoff_hz, proc.order)[::proc.decimation]
+
+
+def uniform_grid(t: np.ndarray) -> tuple[np.ndarray, float]:
+    """Grid from t[0] at the median step (s), and that step."""
+    dt = float(np.median(np.diff(t)))
+    return t[0] + dt * np.arange(int(np.floor((t[-1] - t[0]) / dt)) + 1), dt
+
+
+def spectral_cutoff(signal: np.ndarray, fs: float, power_fraction: float, margin: float) -> tuple[float, np.ndarray]:
+    """(cut-off Hz, per-column frequency holding `power_fraction` of the de-meaned power)."""
+    x = signal - signal.mean(axis=0)
+    freq, psd = welch(x, fs=fs, nperseg=min(len(x), 2048), axis=0)
+    cumulative = np.cumsum(psd, axis=0)
+    total = cumulative[-1]
+    if np.any(total <= 0):
+        raise InputError("a column has no variation: its spectrum is empty", field="velocity")
+    per_column = np.array([freq[np.searchsorted(cumulative[:, j] / total[j], power_fraction)]
+                           for j in range(x.shape[1])])
+    return float(min(margin * per_column.max(), 0.45 * fs)), per_column
+
+
+def lowpass(signal: np.ndarray, fs: float, cutoff_hz: float, order: int) -> np.ndarray:
+    """Zero-phase Butterworth low-pass along axis 0."""
+    sos = butter(order, cutoff_hz, btype="low", fs=fs, output="sos")
+    return sosfiltfilt(sos, signal, axis=0)
+
+
+def best_lag(reference: np.ndarray, other: np.ndarray, max_lag: int) -> int:
+    """Shift k (samples, |k| <= max_lag) maximising sum reference[i] other[i + k]: k > 0 means
+    `other` lags behind `reference`."""
+    n = len(reference)
+    scores = [float(np.dot(reference[max(0, -k): n - max(0, k)], other[max(0, k): n - max(0, -k)]))
+              for k in range(-max_lag, max_lag + 1)]
+    return int(np.argmax(scores)) - max_lag
+
+
+def process_log(t: np.ndarray, q: np.ndarray, v: np.ndarray, effort: np.ndarray,
+                options: SignalOptions | None = None) -> ProcessedLog:
+    """Resample, filter, differentiate, trim and decimate a log (t (T,) s; q, v, effort (T, n))."""
+    opt = options or SignalOptions()
+    grid, dt = uniform_grid(t)
+    fs = 1.0 / dt
+    qg = CubicSpline(t, q, axis=0)(grid)
+    vg = CubicSpline(t, v, axis=0)(grid)
+    eg = np.column_stack([np.interp(grid, t, effort[:, j]) for j in range(effort.shape[1])])
+    if opt.cutoff_hz is None:
+        fc, per_joint = spectral_cutoff(vg, fs, opt.power_fraction, opt.cutoff_margin)
+        rule = (f"cut-off {fc:.3g} Hz = {opt.cutoff_margin:g} x the largest frequency holding "
+                f"{100 * opt.power_fraction:g} % of a joint's logged-velocity power (per joint: "
+                + ", ".join(f"{f:.3g}" for f in per_joint) + " Hz; Welch spectrum)")
+    else:
+        fc = float(opt.cutoff_hz)
+        rule = f"cut-off {fc:.3g} Hz (configured)"
+    if not 0 < fc < 0.5 * fs:
+        raise InputError(f"cut-off {fc} Hz must lie in (0, {0.5 * fs:g}) Hz", source="config", field="signal.cutoff_hz")
+    qf, vf, ef = (lowpass(x, fs, fc, opt.order) for x in (qg, vg, eg))
+    v_num = np.gradient(qf, dt, axis=0)
+    v_use = vf if opt.velocity_source == "logged" else v_num
+    a = np.gradient(v_use, dt, axis=0)
+    trim = int(np.ceil(opt.edge_periods / fc / dt))
+    if len(grid) <= 2 * trim + 3:
+        raise InputError(f"log of {t[-1] - t[0]:.3g} s is too short for a {fc:.3g} Hz filter", field="t")
+    keep = slice(trim, len(grid) - trim)
+    check = _velocity_check(v_num[keep], vf[keep], vg[keep], dt)
+    k = int(opt.decimate) if opt.decimate is not None else max(1, int(np.floor(fs / (2 * opt.nyquist_ratio * fc))))
+    choices = [
+        f"resampled {len(t)} samples (steps {np.diff(t).min() * 1e3:.3g} to {np.diff(t).max() * 1e3:.3g} ms) "
+        f"onto a uniform {dt * 1e3:.4g} ms grid: cubic spline for positions and velocities, linear for efforts",
+        rule,
+        f"zero-phase Butterworth low-pass, order {opt.order} (x2 by sosfiltfilt), on positions, velocities and efforts",
+        f"velocities: {opt.velocity_source}; accelerations: central differences of those velocities",
+        f"{trim} samples ({trim * dt:.3g} s, {opt.edge_periods:g} cut-off periods) trimmed at each end",
+        "parallel filtering: the regressor columns, computed at every grid sample, get the same low-pass "
+        "as the torques before decimation (a Coulomb step is then smoothed alike on both sides)",
+        f"decimated by {k} to {fs / k:.4g} Hz (Nyquist {fs / k / 2:.3g} Hz >= {opt.nyquist_ratio:g} x cut-off)"
+        if opt.decimate is None else f"decimated by {k} (configured) to {fs / k:.4g} Hz",
+    ]
+    return ProcessedLog(grid[keep], qf[keep], v_use[keep], a[keep], ef[keep], fs, fc, k, opt.order, choices, check)
+
+
+def _velocity_check(v_num: np.ndarray, v_filtered: np.ndarray, v_raw: np.ndarray, dt: float) -> dict:
+    max_lag = int(round(MAX_LAG_S / dt))
+    lags = [best_lag(v_num[:, j], v_filtered[:, j], max_lag) * dt for j in range(v_num.shape[1])]
+    return {
+        "rms_differentiated_minus_logged": np.sqrt(np.mean((v_num - v_filtered) ** 2, axis=0)).tolist(),
+        "lag_of_logged_s": lags,
+        "rms_logged_noise": np.sqrt(np.mean((v_raw - v_filtered) ** 2, axis=0)).tolist(),
+        "rms_velocity": np.sqrt(np.mean(v_filtered ** 2, axis=0)).tolist(),
+    }

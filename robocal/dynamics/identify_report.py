@@ -1,0 +1,138 @@
+"""Output of `robocal identify dyn.yaml`: result.json, summary.txt and torque_validation.png
+(measured vs predicted torque per recorded joint on the validation window), written atomically
+(robocal.output.write_folder: an error leaves no half-written folder). See docs/dynamics_tiago.md.
+"""
+from __future__ import annotations
+
+import io
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from robocal.dynamics.identify_run import MODELS, IdentifyResult, identify_from_config
+from robocal.errors import InputError
+from robocal.output import write_folder
+
+LABELS = {"cad": "CAD (URDF)", "ols": "OLS base parameters", "consistent": "physically consistent"}
+
+
+def result_dict(res: IdentifyResult) -> dict:
+    """Everything the summary states, as JSON-ready values (units in the key names)."""
+    proc, ols, fit = res.processed, res.ols, res.consistent
+    bodies = res.model.names[1:]
+    return {
+        "config": res.config.source,
+        "recorded_joints": res.recorded,
+        "torque_units": ["N" if res.model.joints[res.model.getJointId(j)].shortname().startswith("JointModelP")
+                         else "N m" for j in res.recorded],
+        "signal_processing": {"choices": proc.choices, "cutoff_hz": proc.cutoff_hz, "grid_rate_hz": proc.fs_raw,
+                              "decimation": proc.decimation, "velocity_check": proc.velocity_check},
+        "windows_s": {"train": list(res.config.train), "validate": list(res.config.validate),
+                      "train_samples": int(res.train.sum()), "validate_samples": int(res.check.sum())},
+        "ols": {"names": ols.names, "values": ols.values.tolist(), "std": ols.std.tolist(),
+                "condition_number": ols.condition, "rank": ols.selection.rank,
+                "residual_rms_per_joint": ols.sigma.tolist(), "dropped": ols.selection.describe()},
+        "consistent": {"prior_weight": fit.prior_weight, "prior_grid": res.prior.grid,
+                       "prior_scores": res.prior.scores, "prior_split": res.prior.split_fraction,
+                       "admm_iterations": fit.iterations, "admm_converged": fit.converged,
+                       "inertial": {b: p.tolist() for b, p in zip(bodies, fit.inertial.reshape(-1, 10))},
+                       "extra": dict(zip(res.consistent_extra_names(), fit.extra.tolist())),
+                       "pseudo_inertia_min_eigenvalue": {b: v[0] for b, v in res.consistency.items()},
+                       "physically_consistent": {b: v[1] for b, v in res.consistency.items()}},
+        "validation_rmse": res.validation,
+        "validation_torque_range": res.torque_range,
+        "training_rms": res.training_rms,
+        "consistent_vs_ols": res.within_noise,
+        "external_force_rms_N": res.wrench_rms,
+    }
+
+
+def summary_text(res: IdentifyResult) -> str:
+    d = result_dict(res)
+    units = d["torque_units"]
+    lines = [f"Dynamic identification: {res.config.source}", "", "Signal processing:"]
+    lines += [f"  - {c}" for c in res.processed.choices]
+    vc = res.processed.velocity_check
+    idx = [res.model.joints[res.model.getJointId(j)].idx_v for j in res.recorded]
+    lines.append("  - logged vs differentiated velocities (recorded joints): RMS difference "
+                 + ", ".join(f"{vc['rms_differentiated_minus_logged'][i]:.3g}" for i in idx)
+                 + "; logged velocities lag by " + ", ".join(f"{vc['lag_of_logged_s'][i]:.3g}" for i in idx) + " s")
+    w = d["windows_s"]
+    lines += ["", f"Training window {w['train']} s ({w['train_samples']} samples), validation {w['validate']} s "
+              f"({w['validate_samples']} samples, held out).",
+              f"OLS: {d['ols']['rank']} base parameters, condition number {d['ols']['condition_number']:.4g}.",
+              f"Consistent fit: CAD prior weight {res.consistent.prior_weight:.3g} chosen on the training window "
+              f"(fit on its first {100 * res.prior.split_fraction:.0f} %, scored on the rest); "
+              f"ADMM {res.consistent.iterations} iterations, converged: {res.consistent.converged}.",
+              "Every body's pseudo-inertia PSD: " + str(all(v[1] for v in res.consistency.values())),
+              "", "Held-out torque RMSE per joint (% of the joint's torque range in the window):"]
+    header = f"  {'model':24s}" + "".join(f"{j:>22s}" for j in res.recorded)
+    lines.append(header)
+    for m in MODELS:
+        v = res.validation[m]
+        lines.append(f"  {LABELS[m]:24s}" + "".join(f"{r:10.3f} {u:3s} ({p:5.1f} %)"
+                                                        for r, u, p in zip(v["rmse"], units, v["percent_of_range"])))
+    ratio = np.array(res.validation["consistent"]["rmse"]) / np.array(res.validation["ols"]["rmse"])
+    lines += ["  consistent / OLS: " + ", ".join(f"{r:.3f}" for r in ratio),
+              f"Training: the consistent fit raises the weighted residual by "
+              f"{res.within_noise['residual_increase_in_noise_units']:.4g} noise units "
+              f"(chi-square 95 % for {res.within_noise['base_parameters']} base parameters: "
+              f"{res.within_noise['chi2_95']:.4g}); per-joint RMS ratio to OLS "
+              + ", ".join(f"{r:.3f}" for r in res.within_noise["rms_ratio"]), "",
+              f"External force at {res.wrench_rms['frame']} during free motion (validation window), RMS per "
+              "world axis x, y, z (force only):"]
+    for m in MODELS:
+        lines.append(f"  {LABELS[m]:24s}" + "  ".join(f"{f:8.3f} N" for f in res.wrench_rms[m]))
+    return "\n".join(lines) + "\n"
+
+
+def torque_figure(res: IdentifyResult) -> bytes:
+    """PNG: measured and predicted torques per recorded joint on the validation window."""
+    import matplotlib                       # optional dependency: imported only when a figure is asked for
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt         # optional dependency (see above)
+    n = len(res.recorded)
+    fig, axes = plt.subplots(n, 1, figsize=(9, 2.2 * n), sharex=True)
+    t = res.curves["t"]
+    for k, ax in enumerate(np.atleast_1d(axes)):
+        ax.plot(t, res.curves["measured"][:, k], "k-", lw=1.5, label="measured (filtered)")
+        for m, style in zip(MODELS, ("C3:", "C0--", "C2-")):
+            ax.plot(t, res.curves[m][:, k], style, lw=1, label=LABELS[m])
+        ax.set_ylabel(res.recorded[k].replace("_joint", ""))
+    np.atleast_1d(axes)[0].legend(loc="upper right", fontsize=7, ncol=4)
+    np.atleast_1d(axes)[-1].set_xlabel("time (s)")
+    fig.tight_layout()
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=90)
+    plt.close(fig)
+    return buf.getvalue()
+
+
+def write_identification(res: IdentifyResult, out_dir: str | Path, force: bool = False) -> dict[str, Path]:
+    files = {"result.json": json.dumps(result_dict(res), indent=1).encode(),
+             "summary.txt": summary_text(res).encode()}
+    try:
+        files["torque_validation.png"] = torque_figure(res)
+    except ImportError:
+        files["summary.txt"] += b"(matplotlib is not installed: no figure)\n"
+    return write_folder(out_dir, files, force=force)
+
+
+def run_identify(config_path: str | Path, out_dir: str | Path | None = None, force: bool = False) -> int:
+    """`robocal identify`: identify, print the summary, write the folder (out_dir, else the config's
+    `output`). Returns 0, or 2 after printing the error when the input is bad (nothing written)."""
+    try:
+        res = identify_from_config(config_path)
+        target = out_dir if out_dir is not None else res.config.output
+        if target is None:
+            raise InputError("no output folder: give one or set `output` in the config", source=str(config_path),
+                             field="output")
+        write_identification(res, target, force)
+    except InputError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    print(summary_text(res), end="")
+    print(f"written to {Path(target).resolve()}")
+    return 0

@@ -1,0 +1,189 @@
+"""Dynamic identification from a config alone: load, filter, fit (unconstrained and physically
+consistent), validate on a held-out window, and estimate the external force in free motion.
+
+`identify_from_config(path_or_dict, base_dir)` returns an `IdentifyResult`; identify_report.py
+writes it. Models compared side by side: 'cad' (the URDF's inertias, no friction), 'ols' (base
+parameters by weighted least squares), 'consistent' (log-Cholesky fit with the CAD prior).
+See docs/dynamics_tiago.md.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import pinocchio as pin
+from scipy.stats import chi2
+
+from robocal.dynamics.consistent_fit import ConsistentFit, PriorWeightChoice, choose_prior_weight, fit_consistent
+from robocal.dynamics.external_force import ExternalForceEstimator
+from robocal.dynamics.filtering import ProcessedLog, parallel_filter, process_log
+from robocal.dynamics.identification import base_values_of
+from robocal.dynamics.identify_config import (IdentifyConfig, load_identify_config, model_columns, reduced_model,
+                                              velocity_index)
+from robocal.dynamics.inertial import is_physically_consistent, parameter_vector, pseudo_inertia, with_parameters
+from robocal.dynamics.log_loading import JointLog, load_joint_log
+from robocal.dynamics.regression import BaseFit, Regressor, build_regressor, fit_base
+from robocal.dynamics.wrench import WrenchMapper
+from robocal.errors import InputError
+
+MODELS = ("cad", "ols", "consistent")
+
+
+@dataclass
+class IdentifyResult:
+    """config; model: the reduced CAD model; recorded: recorded joint names (model order);
+    processed: the filtered log (full rate); train, check: masks over its decimated samples
+    (processed.t[::processed.decimation]); ols, consistent,
+    prior: the fits; consistency: {body: (smallest pseudo-inertia eigenvalue, realisable)} of the
+    consistent model; validation: {model: {'rmse': [...], 'percent_of_range': [...]}} on the
+    validation window; training_rms: {model: [...]}; torque_range: per joint on the validation
+    window; within_noise: comparison of the consistent and unconstrained fits; wrench_rms:
+    {model: [fx, fy, fz] N}; curves: validation time, measured and predicted torques for plots."""
+
+    config: IdentifyConfig
+    model: pin.Model
+    recorded: list[str]
+    processed: ProcessedLog
+    train: np.ndarray
+    check: np.ndarray
+    ols: BaseFit
+    consistent: ConsistentFit
+    prior: PriorWeightChoice
+    consistency: dict
+    validation: dict
+    training_rms: dict
+    torque_range: list
+    within_noise: dict
+    wrench_rms: dict
+    curves: dict = field(repr=False, default_factory=dict)
+
+    def consistent_model(self) -> pin.Model:
+        """The reduced model carrying the consistent inertial parameters and rotor inertias."""
+        out = with_parameters(self.model, self.consistent.inertial)
+        names = self.consistent_extra_names()
+        for value, name in zip(self.consistent.extra, names):
+            joint, term = name.rsplit(".", 1)
+            if term == "armature":
+                out.armature[velocity_index(out, joint)] = value
+        return out
+
+    def consistent_extra_names(self) -> list[str]:
+        """Names of the extra terms (friction, offsets, rotor inertias), in `consistent.extra` order."""
+        return self.ols.selection.names[10 * (self.model.njoints - 1):]
+
+
+def identify_from_config(path_or_dict, base_dir=None) -> IdentifyResult:
+    """Run the whole identification described by a YAML file or mapping (see identify_config.py)."""
+    cfg = load_identify_config(path_or_dict, base_dir)
+    model = reduced_model(cfg.urdf, cfg.joints)
+    log = load_joint_log({k: str(p) for k, p in cfg.files.items()}, cfg.joints, cfg.time_column, cfg.patterns)
+    recorded = sorted(cfg.recorded, key=lambda j: velocity_index(model, j))
+    rec_cols = [cfg.joints.index(j) for j in recorded]
+    rec_idx = [velocity_index(model, j) for j in recorded]
+    _check_windows(cfg, log)
+    _check_motion(cfg, log, rec_cols)
+    scale = np.array([cfg.torque_scale[j] for j in recorded])
+    offset = np.array([cfg.torque_offset.get(j, 0.0) for j in recorded])
+    tau = log.effort[:, rec_cols] * scale + offset
+    proc = process_log(log.t, model_columns(model, cfg.joints, log.q), model_columns(model, cfg.joints, log.v),
+                       tau, cfg.signal)
+    width = cfg.coulomb_width * np.sqrt(np.mean(proc.v[_in(proc.t, cfg.train)][:, rec_idx] ** 2, axis=0))
+    # parallel filtering: regressor at the full rate, same low-pass as the torques, then decimation
+    reg_all = build_regressor(model, proc.q, proc.v, proc.a, rec_idx, cfg.terms, width).transformed(
+        lambda X: parallel_filter(proc, X))
+    t_dec = proc.t[::proc.decimation]
+    tau_dec = proc.effort[::proc.decimation]
+    train, check = _in(t_dec, cfg.train), _in(t_dec, cfg.validate)
+    if train.sum() < 10 or check.sum() < 10:
+        raise InputError(f"after filtering, {train.sum()} training and {check.sum()} validation samples remain; "
+                         "widen the windows", source=cfg.source, field="windows")
+
+    def regressor(mask) -> Regressor:
+        return reg_all.samples(mask)
+
+    reg_train, reg_check = regressor(train), regressor(check)
+    tau_train, tau_check = tau_dec[train], tau_dec[check]
+    ols = fit_base(reg_train, tau_train)
+    if ols.selection.rank == 0:
+        raise InputError("the training window identifies no parameter", source=str(cfg.files["position"]),
+                         field="windows.train")
+    cad = parameter_vector(model)
+    n_fit = int(round(cfg.prior_split * train.sum()))
+    idx = np.flatnonzero(train)
+    first, second = np.zeros_like(train), np.zeros_like(train)
+    first[idx[:n_fit]], second[idx[n_fit:]] = True, True
+    prior = choose_prior_weight(regressor(first), tau_dec[first], regressor(second), tau_dec[second],
+                                ols.sigma, cad, cfg.prior_grid, cfg.prior_split)
+    consistent, _ = fit_consistent(reg_train, tau_train, ols.sigma, cad, prior.chosen, prior.state)
+    predict = {"cad": lambda reg: (reg.X[:, :reg.n_inertial] @ cad).reshape(-1, len(rec_idx)),
+               "ols": ols.predict, "consistent": consistent.predict}
+    t_range = (tau_check.max(axis=0) - tau_check.min(axis=0)).tolist()
+    validation, training_rms, curves = {}, {}, {"t": t_dec[check], "measured": tau_check}
+    for name, f in predict.items():
+        pred = f(reg_check)
+        rmse = np.sqrt(np.mean((pred - tau_check) ** 2, axis=0))
+        validation[name] = {"rmse": rmse.tolist(), "percent_of_range": (100 * rmse / np.array(t_range)).tolist()}
+        training_rms[name] = np.sqrt(np.mean((f(reg_train) - tau_train) ** 2, axis=0)).tolist()
+        curves[name] = pred
+    bodies = {model.names[j]: p for j, p in zip(range(1, model.njoints), consistent.inertial.reshape(-1, 10))}
+    consistency = {b: (float(np.linalg.eigvalsh(pseudo_inertia(p))[0]), is_physically_consistent(p))
+                   for b, p in bodies.items()}
+    beta_c = base_values_of(ols.selection, consistent.params)
+    within = _within_noise(reg_train, tau_train, ols, consistent, beta_c)
+    wrench = _wrench_rms(cfg, model, proc.q[::proc.decimation][check], rec_idx, {k: curves[k] for k in MODELS},
+                         tau_check)
+    return IdentifyResult(cfg, model, recorded, proc, train, check, ols, consistent, prior, consistency, validation,
+                          training_rms, t_range, within, wrench, curves)
+
+
+def _check_windows(cfg: IdentifyConfig, log: JointLog) -> None:
+    for key, (a, b) in (("train", cfg.train), ("validate", cfg.validate)):
+        if a < log.t[0] or b > log.t[-1] + 1.0:
+            raise InputError(f"window [{a}, {b}] s lies outside the log ({log.t[0]:.4g} to {log.t[-1]:.4g} s)",
+                             source=cfg.source, field=f"windows.{key}")
+
+
+def _check_motion(cfg: IdentifyConfig, log: JointLog, rec_cols: list[int]) -> None:
+    """A recorded joint that does not move in the training window cannot be identified."""
+    mask = log.window(*cfg.train)
+    pattern = cfg.patterns.get("position", "- {joint}_position")
+    for k in rec_cols:
+        span = float(np.ptp(log.q[mask, k]))
+        if span < cfg.min_motion:
+            raise InputError(f"joint moves by {span:.3g} (< windows.min_motion = {cfg.min_motion:g}) in the "
+                             f"training window {list(cfg.train)} s: the trajectory does not excite it",
+                             source=log.files["position"], field=pattern.format(joint=cfg.joints[k]))
+
+
+def _within_noise(reg: Regressor, tau: np.ndarray, ols: BaseFit, fit: ConsistentFit, beta_c: np.ndarray) -> dict:
+    """How far the consistent fit lies from the unconstrained one, in the unconstrained fit's noise:
+    the weighted residual increase (= squared Mahalanobis distance of its base parameters from the
+    OLS estimate, the model being linear in them) against the chi-square 95 % quantile."""
+    w = np.tile(1.0 / ols.sigma, len(tau))
+    y = tau.reshape(-1)
+    rss = lambda pred: float(np.sum(((pred.reshape(-1) - y) * w) ** 2))     # noqa: E731
+    s2 = rss(ols.predict(reg)) / ols.dof
+    increase = (rss(fit.predict(reg)) - rss(ols.predict(reg))) / s2
+    p = ols.selection.rank
+    return {"residual_increase_in_noise_units": increase, "chi2_95": float(chi2.ppf(0.95, p)),
+            "base_parameters": p, "rms_ratio": (np.sqrt(np.mean((fit.predict(reg) - tau) ** 2, axis=0))
+                                               / np.sqrt(np.mean((ols.predict(reg) - tau) ** 2, axis=0))).tolist(),
+            "max_base_deviation_in_std": float(np.max(np.abs(beta_c - ols.values) / ols.std))}
+
+
+def _in(t: np.ndarray, window: tuple[float, float]) -> np.ndarray:
+    return (t >= window[0]) & (t < window[1])
+
+
+def _wrench_rms(cfg, model, q, rec_idx, predictions, measured) -> dict:
+    """RMS (N) per world axis of the force at the wrench frame that explains the torque the model
+    misses (measured - predicted, recorded joints only; force only: the recorded joints are too few
+    to resolve a moment as well)."""
+    name = cfg.wrench_frame or model.frames[-1].name
+    if not model.existFrame(name):
+        raise InputError(f"frame '{name}' is not in the model", source=cfg.source, field="wrench.frame")
+    est = ExternalForceEstimator(model, model.getFrameId(name))
+    J = est.jacobians(q)[:, :, rec_idx]
+    mapper = WrenchMapper(force_only=True)
+    return {k: np.sqrt(np.mean(mapper.map(J, measured - pred).force ** 2, axis=0)).tolist()
+            for k, pred in predictions.items()} | {"frame": name}

@@ -1,0 +1,88 @@
+"""Joint-state logs as three CSV files (positions, velocities, efforts) sharing a time column.
+
+Each file has a time column (s) and one column per joint named by a pattern such as
+`- {joint}_position` (the ROS joint_states export). The time stamps may be irregular but must be
+strictly increasing and identical row by row across the three files: a mismatch is refused, naming
+the file, row and field, rather than silently re-aligned. See docs/dynamics_tiago.md.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from robocal.data import read_csv
+from robocal.errors import InputError
+
+KINDS = ("position", "velocity", "effort")
+DEFAULT_PATTERNS = {kind: f"- {{joint}}_{kind}" for kind in KINDS}
+#: time stamps of two files that differ by more than this (s) are different samples
+TIME_TOLERANCE = 1e-9
+
+
+@dataclass
+class JointLog:
+    """t (T,) s, strictly increasing; q, v, effort (T, n) in the file's units, columns in `joints`
+    order; files: {kind: path} the data came from (for error messages and provenance)."""
+
+    t: np.ndarray
+    q: np.ndarray
+    v: np.ndarray
+    effort: np.ndarray
+    joints: list[str]
+    files: dict[str, str]
+
+    def window(self, start: float, stop: float) -> np.ndarray:
+        """Boolean mask of the samples with start <= t < stop."""
+        return (self.t >= start) & (self.t < stop)
+
+
+def load_joint_log(files: dict[str, str | Path], joints: list[str], time_column: str = "t",
+                   patterns: dict[str, str] | None = None) -> JointLog:
+    """Read the position, velocity and effort files (`files` keyed by KINDS) for `joints`.
+
+    patterns: column name per kind with a `{joint}` placeholder (DEFAULT_PATTERNS otherwise).
+    Raises InputError naming the file, row and column for a missing column, a non-number, time
+    stamps that do not increase, or time stamps that differ between the files.
+    """
+    patterns = {**DEFAULT_PATTERNS, **(patterns or {})}
+    missing = [k for k in KINDS if k not in files]
+    if missing:
+        raise InputError(f"no file given for {', '.join(missing)}", source="config", field="data")
+    tables = {kind: read_csv(files[kind]) for kind in KINDS}
+    times = {kind: tables[kind].column(time_column) for kind in KINDS}
+    reference = "position"
+    t = times[reference]
+    _check_increasing(t, tables[reference], time_column)
+    for kind in KINDS[1:]:
+        other = times[kind]
+        tab = tables[kind]
+        if len(other) != len(t):
+            raise InputError(f"{len(other)} rows where {tables[reference].path.name} has {len(t)}: the three "
+                             "files must share their time stamps row by row", source=str(tab.path),
+                             field=time_column)
+        bad = np.flatnonzero(np.abs(other - t) > TIME_TOLERANCE)
+        if bad.size:
+            i = int(bad[0])
+            raise InputError(f"time stamp {other[i]!r} differs from {t[i]!r} in {tables[reference].path.name} "
+                             f"({bad.size} rows differ): the three files must share their time stamps",
+                             source=str(tab.path), row=tab.line(i), field=time_column)
+    columns = {}
+    for kind in KINDS:
+        tab = tables[kind]
+        columns[kind] = np.column_stack([tab.column(patterns[kind].format(joint=j)) for j in joints]) \
+            if joints else np.zeros((len(t), 0))
+    return JointLog(t, columns["position"], columns["velocity"], columns["effort"], list(joints),
+                    {k: str(tables[k].path) for k in KINDS})
+
+
+def _check_increasing(t: np.ndarray, table, field: str) -> None:
+    if len(t) < 3:
+        raise InputError(f"only {len(t)} samples; a log needs at least 3", source=str(table.path), field=field)
+    steps = np.diff(t)
+    bad = np.flatnonzero(~(steps > 0))
+    if bad.size:
+        i = int(bad[0]) + 1
+        raise InputError(f"time stamp {t[i]!r} does not increase (previous {t[i - 1]!r})", source=str(table.path),
+                         row=table.line(i), field=field)

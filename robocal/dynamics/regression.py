@@ -1,0 +1,129 @@
+"""The identification regressor restricted to the joints whose torque was recorded, and the
+unconstrained (ordinary weighted least-squares) fit of its base parameters.
+
+Per sample and recorded joint j:  tau_j = Y_j(q, v, a) pi + Fc_j tanh(v_j / eps) + Fv_j v_j + tau0_j
++ Ia_j a_j, with pi the 10 inertial parameters of every body (inertial.py), Fc, Fv Coulomb and
+viscous friction, tau0 a torque offset and Ia the rotor inertia reflected to the joint (armature).
+Joints without recorded torque stay in the model (their bodies load the others) but give no rows.
+Base parameters are chosen by robocal.identifiability.select_base_parameters on the weighted
+regressor; the weights 1/sigma_j come from the residuals (two passes). See docs/dynamics_tiago.md.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+
+from robocal.dynamics.inertial import parameter_names, torque_regressor
+from robocal.errors import InputError
+from robocal.identifiability import BaseSelection, covariance, select_base_parameters
+
+EXTRA_TERMS = ("coulomb", "viscous", "offset", "armature")
+
+
+@dataclass
+class Regressor:
+    """X (T nr, n_inertial + n_extra) rows sample-major over the recorded joints; names of the
+    columns; n_inertial: the first columns are the bodies' inertial parameters."""
+
+    X: np.ndarray
+    names: list[str]
+    n_inertial: int
+    recorded: list[int]
+
+    def split(self, params: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return params[: self.n_inertial], params[self.n_inertial:]
+
+    def samples(self, mask: np.ndarray) -> "Regressor":
+        """The rows of the samples selected by a boolean mask over samples."""
+        nr = len(self.recorded)
+        X = self.X.reshape(-1, nr, self.X.shape[1])[mask].reshape(-1, self.X.shape[1])
+        return Regressor(X, self.names, self.n_inertial, self.recorded)
+
+    def transformed(self, function) -> "Regressor":
+        """A regressor whose (T, nr, columns) array went through `function` along its sample axis."""
+        nr = len(self.recorded)
+        X = function(self.X.reshape(-1, nr, self.X.shape[1]))
+        return Regressor(X.reshape(-1, self.X.shape[1]), self.names, self.n_inertial, self.recorded)
+
+
+def build_regressor(model: pin.Model, q: np.ndarray, v: np.ndarray, a: np.ndarray, recorded: list[int],
+                    terms: tuple[str, ...] = EXTRA_TERMS, coulomb_width: float | np.ndarray = 0.01) -> Regressor:
+    """Regressor over the velocity indices `recorded` (model order); q (T, nq), v, a (T, nv).
+    coulomb_width: tanh width (velocity units) per recorded joint, or one for all."""
+    for term in terms:
+        if term not in EXTRA_TERMS:
+            raise InputError(f"unknown term '{term}'; known: {', '.join(EXTRA_TERMS)}", source="config",
+                             field="model.terms")
+    T, nv = v.shape
+    Y = torque_regressor(model, q, v, a).reshape(T, nv, -1)[:, recorded, :]
+    nr = len(recorded)
+    width = np.zeros(nv)
+    width[recorded] = np.broadcast_to(np.asarray(coulomb_width, float), (nr,))
+    if np.any(width[recorded] <= 0):
+        raise InputError("the Coulomb tanh width must be > 0", source="config", field="model.coulomb_width")
+    width[width == 0] = 1.0                  # joints without rows: any width, their column is unused
+    cols = {"coulomb": np.tanh(v / width), "viscous": v, "offset": np.ones_like(v), "armature": a}
+    extra = np.zeros((T, nr, nr * len(terms)))
+    names = []
+    for k, j in enumerate(recorded):
+        for m, term in enumerate(terms):
+            extra[:, k, k * len(terms) + m] = cols[term][:, j]
+            names.append(f"{_velocity_name(model, j)}.{term}")
+    X = np.concatenate([Y, extra], axis=2).reshape(T * nr, -1)
+    return Regressor(X, parameter_names(model) + names, Y.shape[2], list(recorded))
+
+
+def _velocity_name(model: pin.Model, idx_v: int) -> str:
+    for j in range(1, model.njoints):
+        if model.joints[j].idx_v <= idx_v < model.joints[j].idx_v + model.joints[j].nv:
+            return model.names[j]
+    raise InputError(f"no joint has velocity index {idx_v}", field="joints")
+
+
+@dataclass
+class BaseFit:
+    """Unconstrained fit. selection: the base-parameter choice; values, std: base parameters and
+    their standard errors; sigma (nr,) per-joint residual RMS used as weights (torque units);
+    condition: condition number of the column-scaled weighted base regressor; dof: rows - parameters."""
+
+    selection: BaseSelection
+    values: np.ndarray
+    std: np.ndarray
+    sigma: np.ndarray
+    condition: float
+    dof: int
+
+    @property
+    def names(self) -> list[str]:
+        return [self.selection.names[i] for i in self.selection.independent]
+
+    def predict(self, reg: Regressor) -> np.ndarray:
+        """Torques (T, nr) of the recorded joints on another regressor of the same model."""
+        return (reg.X[:, self.selection.independent] @ self.values).reshape(-1, len(reg.recorded))
+
+
+def row_weights(sigma: np.ndarray, n_samples: int) -> np.ndarray:
+    return np.tile(1.0 / np.asarray(sigma, float), n_samples)
+
+
+def fit_base(reg: Regressor, tau: np.ndarray, rtol: float = 1e-6) -> BaseFit:
+    """Weighted least squares of tau (T, nr) on the base columns of `reg`."""
+    tau = np.asarray(tau, float)
+    nr = len(reg.recorded)
+    if tau.shape[1] != nr or tau.size != reg.X.shape[0]:
+        raise InputError(f"torques must be (T, {nr}) matching the regressor", field="effort")
+    y = tau.reshape(-1)
+    sigma = np.ones(nr)
+    for _ in range(2):                       # weights from the residuals of the previous pass
+        w = row_weights(sigma, len(tau))
+        sel = select_base_parameters(reg.X * w[:, None], reg.names, rtol)
+        Xb = reg.X[:, sel.independent] * w[:, None]
+        beta, *_ = np.linalg.lstsq(Xb, y * w, rcond=None)
+        resid = (y - reg.X[:, sel.independent] @ beta).reshape(-1, nr)
+        sigma = np.maximum(np.sqrt(np.mean(resid**2, axis=0)), 1e-12 * max(1.0, np.abs(y).max()))
+    dof = max(len(y) - sel.rank, 1)
+    s2 = float(np.sum((resid.reshape(-1) * w) ** 2) / dof)
+    std = np.sqrt(np.diag(covariance(Xb, s2)))
+    return BaseFit(sel, beta, std, sigma, float(sel.condition), dof)

@@ -1,0 +1,74 @@
+"""Bad input to the identification config: clear errors naming file and field, nothing written."""
+import numpy as np
+import pytest
+import yaml
+
+from robocal.dynamics.identify_report import run_identify
+from robocal.dynamics.identify_run import identify_from_config
+from robocal.errors import InputError
+from tiago_dynamics_cases import JOINTS, shipped, synthetic_log
+
+ROWS = 1500          # 15 s of the log's time stamps: enough for the windows below, fast
+
+
+@pytest.fixture
+def case(tmp_path):
+    cfg, _, _ = synthetic_log(tmp_path / "data", ROWS, train=(1.0, 9.0), validate=(9.0, 14.0), noise=False)
+    return cfg, tmp_path
+
+
+def rewrite(cfg, kind, edit):
+    path = cfg["data"][kind]
+    data = np.genfromtxt(path, delimiter=",", skip_header=1)
+    edit(data)
+    header = "t," + ",".join(f"- {j}_{kind}" for j in JOINTS)
+    np.savetxt(path, data, delimiter=",", header=header, comments="", fmt="%.17g")
+    return path
+
+
+def run_and_expect(cfg, tmp_path, match):
+    with pytest.raises(InputError, match=match) as info:
+        identify_from_config(cfg, tmp_path)
+    out = tmp_path / "out"
+    (tmp_path / "dyn.yaml").write_text(yaml.safe_dump(cfg))
+    assert run_identify(tmp_path / "dyn.yaml", out) == 2
+    assert not out.exists() and not list(tmp_path.glob(".out*"))
+    return info.value
+
+
+def test_mismatched_time_stamps_name_the_file_row_and_column(case):
+    cfg, tmp_path = case
+    path = rewrite(cfg, "velocity", lambda d: d.__setitem__((700, 0), d[700, 0] + 0.002))
+    err = run_and_expect(cfg, tmp_path, "time stamp")
+    assert err.source == path and err.field == "t" and err.row == 702     # header is line 1
+
+
+def test_joint_missing_from_the_urdf(case):
+    cfg, tmp_path = case
+    cfg["robot"]["joints"] = cfg["robot"]["joints"] + ["arm_8_joint"]
+    err = run_and_expect(cfg, tmp_path, "arm_8_joint")
+    assert err.source.endswith(".urdf") and err.field == "robot.joints"
+
+
+def test_constant_trajectory_is_refused_naming_the_column(case):
+    cfg, tmp_path = case
+    path = rewrite(cfg, "position", lambda d: d.__setitem__((slice(None), slice(1, None)), d[0, 1:]))
+    err = run_and_expect(cfg, tmp_path, "does not excite")
+    assert err.source == path and err.field == "- torso_lift_joint_position"
+
+
+def test_missing_effort_column_and_overlapping_windows(case):
+    cfg, tmp_path = case
+    cfg["effort"]["recorded"] = cfg["effort"]["recorded"] + ["arm_5_joint"]
+    err = run_and_expect(cfg, tmp_path, "gear_ratio|non-zero")
+    assert err.field == "effort.gear_ratio"
+    cfg["effort"]["recorded"] = cfg["effort"]["recorded"][:-1]
+    cfg["windows"]["validate"] = [8.0, 14.0]
+    err = run_and_expect(cfg, tmp_path, "overlap")
+    assert err.field == "windows.validate"
+
+
+def test_the_shipped_time_stamps_are_irregular():
+    """The synthetic cases reuse these stamps: they must carry the log's irregular steps."""
+    steps = np.diff(shipped("position")[:, 0])
+    assert steps.min() < 0.008 and steps.max() > 0.012

@@ -1,0 +1,59 @@
+"""The shipped TIAGo log through the config alone: the physically consistent model predicts the
+held-out torques better than the CAD model on every recorded joint, every body is realisable, and
+the free-motion external force is smaller than with the CAD model. Figures: docs/dynamics_tiago.md."""
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from robocal.dynamics.identify_config import velocity_index
+from robocal.dynamics.identify_run import identify_from_config
+from robocal.dynamics.inertial import is_physically_consistent
+from robocal.dynamics.regression import build_regressor
+from tiago_dynamics_cases import CONFIG, base_config
+
+
+@pytest.fixture(scope="module")
+def result():
+    cfg = base_config()
+    # the CLI's grid search over the prior weight (13 values, benchmarks/dynamics_tiago.py) chooses
+    # 1.0 on this log; the test fits that value only, to stay fast
+    cfg["model"]["prior_grid"] = [1.0]
+    return identify_from_config(cfg, CONFIG.parent)
+
+
+def test_consistent_model_beats_cad_and_stays_near_ols(result):
+    rmse = {m: np.array(v["rmse"]) for m, v in result.validation.items()}
+    assert np.all(rmse["consistent"] < rmse["cad"])
+    ratio = rmse["consistent"] / rmse["ols"]
+    # arm_1..4: within 5 % of the unconstrained fit (in fact better); the torso is the documented
+    # shortfall (7.4 % above: its effort responds to vertical acceleration like a lighter body than
+    # the URDF's, which a consistent model cannot follow; docs/dynamics_tiago.md)
+    assert np.all(ratio[1:] <= 1.05), ratio
+    assert ratio[0] <= 1.10, ratio
+
+
+def test_every_body_is_physically_consistent(result):
+    bodies = result.consistent.inertial.reshape(-1, 10)
+    assert all(is_physically_consistent(b) for b in bodies)
+    assert all(ok for _, ok in result.consistency.values())
+
+
+def test_free_motion_force_is_smaller_with_the_identified_model(result):
+    cad, fit = np.array(result.wrench_rms["cad"]), np.array(result.wrench_rms["consistent"])
+    assert np.linalg.norm(fit) < np.linalg.norm(cad)
+    assert np.all(fit[:2] < cad[:2])
+
+
+def test_consistent_model_reproduces_the_fit_through_rnea(result):
+    """The exported pin.Model (inertias + rotor inertias) plus the friction terms gives the same
+    torques as the fitted regressor model, so the model can be used for simulation as is."""
+    model = result.consistent_model()
+    p = result.processed
+    rec = [velocity_index(model, j) for j in result.recorded]
+    rows = np.arange(0, len(p.t), 400)
+    reg = build_regressor(result.model, p.q[rows], p.v[rows], p.a[rows], rec, result.config.terms, 0.01)
+    data = model.createData()
+    rnea = np.array([pin.rnea(model, data, p.q[k], p.v[k], p.a[k])[rec] for k in rows])
+    non_inertial = [i for i, n in enumerate(reg.names[reg.n_inertial:]) if not n.endswith("armature")]
+    extra = (reg.X[:, reg.n_inertial:][:, non_inertial] @ result.consistent.extra[non_inertial]).reshape(-1, len(rec))
+    assert np.allclose(rnea + extra, result.consistent.predict(reg), atol=1e-9 * np.abs(rnea).max())
