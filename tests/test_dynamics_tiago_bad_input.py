@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 import yaml
 
-from robocal.dynamics.identify_report import run_identify
+from robocal.cli.main import main
 from robocal.dynamics.identify_run import identify_from_config
 from robocal.errors import InputError
 from tiago_dynamics_cases import JOINTS, shipped, synthetic_log
@@ -31,7 +31,7 @@ def run_and_expect(cfg, tmp_path, match):
         identify_from_config(cfg, tmp_path)
     out = tmp_path / "out"
     (tmp_path / "dyn.yaml").write_text(yaml.safe_dump(cfg))
-    assert run_identify(tmp_path / "dyn.yaml", out) == 2
+    assert main(["identify", str(tmp_path / "dyn.yaml"), "-o", str(out)]) == 2
     assert not out.exists() and not list(tmp_path.glob(".out*"))
     return info.value
 

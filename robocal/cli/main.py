@@ -11,10 +11,10 @@ import sys
 
 import numpy as np
 
-from robocal.cli import calibrate, iso9283, plan, simulate, view
+from robocal.cli import calibrate, identify, iso9283, plan, simulate, view
 from robocal.errors import RobocalError
 
-COMMANDS = (calibrate, simulate, plan, iso9283, view)
+COMMANDS = (calibrate, simulate, plan, iso9283, view, identify)
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from robocal.config import Cfg, read_yaml
+from robocal.io.config import Cfg, read_yaml
 from robocal.dynamics.consistent_fit import DEFAULT_GRID
 from robocal.dynamics.filtering import SignalOptions
 from robocal.dynamics.regression import EXTRA_TERMS

@@ -1,19 +1,17 @@
 """Output of `robocal identify dyn.yaml`: result.json, summary.txt and torque_validation.png
 (measured vs predicted torque per recorded joint on the validation window), written atomically
-(robocal.output.write_folder: an error leaves no half-written folder). See docs/dynamics_tiago.md.
+(robocal.io.output.write_folder: an error leaves no half-written folder). See docs/dynamics_tiago.md.
 """
 from __future__ import annotations
 
 import io
 import json
-import sys
 from pathlib import Path
 
 import numpy as np
 
-from robocal.dynamics.identify_run import MODELS, IdentifyResult, identify_from_config
-from robocal.errors import InputError
-from robocal.output import write_folder
+from robocal.dynamics.identify_run import MODELS, IdentifyResult
+from robocal.io.output import write_folder
 
 LABELS = {"cad": "CAD (URDF)", "ols": "OLS base parameters", "consistent": "physically consistent"}
 
@@ -118,21 +116,3 @@ def write_identification(res: IdentifyResult, out_dir: str | Path, force: bool =
     except ImportError:
         files["summary.txt"] += b"(matplotlib is not installed: no figure)\n"
     return write_folder(out_dir, files, force=force)
-
-
-def run_identify(config_path: str | Path, out_dir: str | Path | None = None, force: bool = False) -> int:
-    """`robocal identify`: identify, print the summary, write the folder (out_dir, else the config's
-    `output`). Returns 0, or 2 after printing the error when the input is bad (nothing written)."""
-    try:
-        res = identify_from_config(config_path)
-        target = out_dir if out_dir is not None else res.config.output
-        if target is None:
-            raise InputError("no output folder: give one or set `output` in the config", source=str(config_path),
-                             field="output")
-        write_identification(res, target, force)
-    except InputError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
-    print(summary_text(res), end="")
-    print(f"written to {Path(target).resolve()}")
-    return 0

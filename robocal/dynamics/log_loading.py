@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from robocal.data import read_csv
+from robocal.io.tables import read_csv
 from robocal.errors import InputError
 
 KINDS = ("position", "velocity", "effort")

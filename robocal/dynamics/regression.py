@@ -5,7 +5,7 @@ Per sample and recorded joint j:  tau_j = Y_j(q, v, a) pi + Fc_j tanh(v_j / eps)
 + Ia_j a_j, with pi the 10 inertial parameters of every body (inertial.py), Fc, Fv Coulomb and
 viscous friction, tau0 a torque offset and Ia the rotor inertia reflected to the joint (armature).
 Joints without recorded torque stay in the model (their bodies load the others) but give no rows.
-Base parameters are chosen by robocal.identifiability.select_base_parameters on the weighted
+Base parameters are chosen by robocal.estimation.identifiability.select_base_parameters on the weighted
 regressor; the weights 1/sigma_j come from the residuals (two passes). See docs/dynamics_tiago.md.
 """
 from __future__ import annotations
@@ -17,7 +17,7 @@ import pinocchio as pin
 
 from robocal.dynamics.inertial import parameter_names, torque_regressor
 from robocal.errors import InputError
-from robocal.identifiability import BaseSelection, covariance, select_base_parameters
+from robocal.estimation.identifiability import BaseSelection, covariance, select_base_parameters
 
 EXTRA_TERMS = ("coulomb", "viscous", "offset", "armature")
 

@@ -1,0 +1,30 @@
+"""`robocal identify dyn.yaml`: dynamic identification from a joint log (robocal.dynamics.identify_run)."""
+from __future__ import annotations
+
+
+from robocal.dynamics.identify_report import summary_text, write_identification
+from robocal.dynamics.identify_run import identify_from_config
+from robocal.errors import InputError
+
+
+def cmd_identify(args) -> int:
+    """Identify, print the summary, write the folder (-o, else the config's `output`); nothing is written
+    for bad input (the error propagates to cli.main, which prints it and exits 2)."""
+    res = identify_from_config(args.config)
+    target = args.output if args.output is not None else res.config.output
+    if target is None:
+        raise InputError("no output folder: give -o or set `output` in the config", source=str(args.config),
+                         field="output")
+    files = write_identification(res, target, args.force)
+    print(summary_text(res), end="")
+    print(f"\nWrote {', '.join(str(f) for f in files.values())}")
+    return 0
+
+
+def add_parser(subparsers) -> None:
+    p = subparsers.add_parser("identify", help="identify inertial and friction parameters from a joint log "
+                                               "(positions, velocities, efforts; docs/dynamics_tiago.md)")
+    p.add_argument("config", help="identification YAML (examples/tiago_dynamics/identify.yaml)")
+    p.add_argument("-o", "--output", help="output folder (default: the config's output)")
+    p.add_argument("--force", action="store_true", help="replace an output folder robocal wrote")
+    p.set_defaults(handler=cmd_identify)
