@@ -69,7 +69,7 @@ def test_broken_xml(tmp_path, capsys):
     (tmp_path / "arm.urdf").write_text("<robot name='x'>\n<link name='a'>\n</robot>")
     code, err = _run(_setup(tmp_path, config_edit=lambda c: c.replace("example: ur5", "urdf: arm.urdf")), capsys)
     assert code == 2
-    assert "arm.urdf, row 3" in err and "not valid XML" in err
+    assert "arm.urdf: not valid XML at line 3" in err and "row" not in err
 
 
 def test_millimetres_in_a_metre_column(tmp_path, capsys):

@@ -17,6 +17,7 @@ def add_parser(subparsers):
     p.add_argument("-o", "--output", help="write the figures as JSON (SI units) to this file")
     p.add_argument("--parameters", help="calibrated parameters from a previous result.json (no fit)")
     p.add_argument("--force", action="store_true", help="replace an existing output file")
+    p.add_argument("-q", "--quiet", action="store_true", help="print only errors and the figures")
     p.set_defaults(handler=cmd_iso9283)
     return p
 
@@ -34,5 +35,6 @@ def cmd_iso9283(args) -> int:
     print(summary([run.nominal, run.calibrated]))
     if out is not None:
         write_atomic(out, (json.dumps(run.to_dict(), indent=2) + "\n").encode())
-        print(f"\nWrote {out}")
+        if not getattr(args, "quiet", False):
+            print(f"\nWrote {out}")
     return 0

@@ -62,6 +62,15 @@ class Table:
             out[k] = v
         return to_si(out, kind, unit, self, name, idx)
 
+    @classmethod
+    def from_columns(cls, path: str | Path, columns: dict[str, np.ndarray]) -> "Table":
+        """An in-memory table (nothing is written; `path` only names it in messages). Numbers are kept
+        exactly: each cell is the shortest text that reads back as the same float."""
+        names = list(columns)
+        data = [np.asarray(columns[n], dtype=float).reshape(-1) for n in names]
+        n = len(data[0]) if data else 0
+        return cls(Path(path), names, [[repr(float(c[i])) for c in data] for i in range(n)])
+
     def rows_where(self, column: str, value) -> np.ndarray:
         if column not in self.header:
             raise InputError("missing column used in 'where'", source=str(self.path), field=column)

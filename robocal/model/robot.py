@@ -6,6 +6,10 @@ Only kinematics and inertias are loaded (no meshes), which takes about a millise
 from __future__ import annotations
 
 import difflib
+import os
+import sys
+import tempfile
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from functools import lru_cache
 from importlib.metadata import PackageNotFoundError, distribution
@@ -235,11 +239,72 @@ def _parse_urdf_text(path: Path) -> tuple[str, etree._ElementTree]:
     try:
         tree = etree.fromstring(text.encode("utf-8"), parser=etree.XMLParser(remove_comments=False))
     except etree.XMLSyntaxError as exc:
-        raise InputError(f"not valid XML: {exc.msg}", source=str(path), row=exc.lineno) from exc
+        # an XML line, not a data row: said as "line N"
+        raise InputError(f"not valid XML at line {exc.lineno}: {exc.msg}", source=str(path)) from None
     if tree.tag != "robot":
-        raise InputError(f"not a URDF: the root element is <{tree.tag}>, expected <robot>",
-                         source=str(path), row=tree.sourceline)
+        raise InputError(f"not a URDF: the root element (line {tree.sourceline}) is <{tree.tag}>, expected <robot>",
+                         source=str(path))
+    _check_urdf_elements(tree, path)
     return text, tree
+
+
+def _check_urdf_elements(tree, path: Path) -> None:
+    """What urdfdom would reject, named by line before it prints its own C++ errors to the terminal."""
+    links = {e.get("name") for e in tree.iter("link")}
+    if not links:
+        raise InputError("not a URDF: it has no <link> element", source=str(path))
+    for kind in ("link", "joint"):
+        for e in tree.iter(kind):
+            if e.getparent() is tree and not e.get("name"):
+                raise InputError(f"<{kind}> at line {e.sourceline} has no name attribute", source=str(path))
+    for j in tree.iter("joint"):
+        if j.getparent() is not tree:
+            continue
+        if j.get("type") not in ("revolute", "continuous", "prismatic", "fixed", "floating", "planar"):
+            raise InputError(f"joint '{j.get('name')}' (line {j.sourceline}) has type '{j.get('type')}'; "
+                             "expected revolute, continuous, prismatic, fixed, floating or planar",
+                             source=str(path), field=f"joint {j.get('name')}")
+        for tag in ("parent", "child"):
+            e = j.find(tag)
+            if e is None or e.get("link") not in links:
+                raise InputError(f"joint '{j.get('name')}' (line {j.sourceline}): <{tag} link=...> names no link "
+                                 f"of this file", source=str(path), field=f"joint {j.get('name')}")
+    for e in tree.iter("origin", "axis", "limit"):
+        for attr in ("xyz", "rpy", "lower", "upper", "effort", "velocity"):
+            text = e.get(attr)
+            if text is None:
+                continue
+            try:
+                values = [float(v) for v in text.split()]
+            except ValueError:
+                values = []
+            if not values or not all(np.isfinite(values)) or (attr in ("xyz", "rpy") and len(values) != 3):
+                raise InputError(f"<{e.tag} {attr}=\"{text}\"> at line {e.sourceline} is not "
+                                 f"{'three numbers' if attr in ('xyz', 'rpy') else 'a number'}", source=str(path),
+                                 field=f"{e.tag}.{attr}")
+
+
+@contextmanager
+def _c_stderr_captured():
+    """Capture what C++ code writes to file descriptor 2 (urdfdom prints its errors there), so it does not
+    leak to the terminal ahead of robocal's own message; yields a list that receives the text."""
+    captured: list[str] = []
+    try:
+        fd = sys.stderr.fileno()
+    except (AttributeError, OSError, ValueError):   # stderr replaced by an object without a descriptor
+        yield captured
+        return
+    sys.stderr.flush()
+    saved = os.dup(fd)
+    with tempfile.TemporaryFile() as tmp:
+        os.dup2(tmp.fileno(), fd)
+        try:
+            yield captured
+        finally:
+            os.dup2(saved, fd)
+            os.close(saved)
+            tmp.seek(0)
+            captured.append(tmp.read().decode("utf-8", errors="replace"))
 
 
 def load_urdf(path: str | Path, package_dirs: list[str | Path] | None = None) -> Robot:
@@ -249,10 +314,16 @@ def load_urdf(path: str | Path, package_dirs: list[str | Path] | None = None) ->
     """
     path = Path(path).resolve()
     text, tree = _parse_urdf_text(path)
-    try:
-        model = pin.buildModelFromXML(text)
-    except (RuntimeError, ValueError) as exc:
-        raise InputError(f"Pinocchio cannot build a model from this URDF: {exc}", source=str(path)) from exc
+    error = None
+    with _c_stderr_captured() as c_errors:
+        try:
+            model = pin.buildModelFromXML(text)
+        except (RuntimeError, ValueError) as exc:
+            error = exc
+    if error is not None:
+        detail = " ".join(line.strip() for line in "".join(c_errors).splitlines() if line.strip())
+        raise InputError(f"Pinocchio cannot build a model from this URDF: {error}"
+                         + (f" (urdfdom: {detail})" if detail else ""), source=str(path)) from None
     dirs = [str(p) for p in (package_dirs or [])] + [str(path.parent)]
     robot = Robot(model=model, urdf_path=path, urdf_text=text, package_dirs=dirs,
                   name=tree.get("name", path.stem))
