@@ -83,7 +83,10 @@ def data_units(data: Cfg) -> tuple[dict[str, str], dict[str, str]]:
 
 
 def default_joints(robot: Robot, frames: Sequence[str]) -> list[str]:
-    """The joints read by default: every joint that moves one of the measured frames, in model order."""
+    """The joints read by default: every joint that moves one of the measured frames, in model order; for a
+    closed chain the actuated joints (the others follow from the closures)."""
+    if robot.loops is not None:
+        return list(robot.loops.actuated)
     return [j for j in robot.joint_names if any(j in robot.supporting_joints(f) for f in frames)]
 
 
@@ -201,7 +204,7 @@ def joint_columns(data: Cfg, robot: Robot, frames: Sequence[str]) -> dict[str, s
             robot.joint_id(j)
         except InputError as exc:
             raise data.error(exc.reason, "joints") from None
-    needed = {j for f in frames for j in robot.supporting_joints(f)}
+    needed = set(default_joints(robot, frames))
     missing = [j for j in robot.joint_names if j in needed and j not in cols]
     if missing:
         raise data.error(f"joints {', '.join(missing)} move the measured frames but have no column", "joints")

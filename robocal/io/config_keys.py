@@ -76,7 +76,8 @@ def all_key_names() -> set[str]:
                 walk(v)
     walk(SCHEMA)
     for t in REGISTRY:
-        walk(measurement_keys(t))
+        if t not in PYTHON_ONLY_TYPES:
+            walk(measurement_keys(t))
     return names
 
 
@@ -96,7 +97,7 @@ def check_keys(raw, source: str, schema=None, path: str = "") -> None:
         return
     if schema == MEASUREMENTS:
         for i, block in enumerate(raw if isinstance(raw, list) else []):
-            if isinstance(block, dict) and block.get("type") in REGISTRY:
+            if isinstance(block, dict) and block.get("type") in REGISTRY and block["type"] not in PYTHON_ONLY_TYPES:
                 check_keys(block, source, measurement_keys(block["type"]), f"{path}[{i}]")
         return
     if isinstance(schema, list):

@@ -54,7 +54,7 @@ def _spread(points: np.ndarray) -> float:
 
 def _hint(ratio: float, unit: str) -> str:
     for other, factor in LENGTH_UNITS.items():
-        implied = ratio * LENGTH_UNITS[unit] / factor
+        implied = ratio * factor / LENGTH_UNITS[unit]   # the spread ratio had the data been read in `other`
         if other != unit and 1 / SCALE_LIMIT < implied < SCALE_LIMIT:
             words = {"m": "metres", "mm": "millimetres"}
             return f"the data look like {words[other]}; the config says {unit} (data.units.length)"
@@ -72,8 +72,8 @@ def nominal_states(setup) -> list:
         except AssemblyError as exc:
             file, row = setup.sample_rows[i]
             table = setup.tables[file]
-            raise InputError(f"the nominal machine cannot take these readings ({exc}); check the joint columns "
-                             f"({', '.join(setup.joint_columns.values())}) and data.joint_units",
+            raise InputError(f"the nominal machine cannot take these readings ({exc}); check the readings and "
+                             "data.joint_units",
                              source=file, row=table.line(row),
                              field=", ".join(setup.joint_columns.values())) from None
     return states

@@ -321,7 +321,9 @@ def load_urdf(path: str | Path, package_dirs: list[str | Path] | None = None) ->
         except (RuntimeError, ValueError) as exc:
             error = exc
     if error is not None:
-        detail = " ".join(line.strip() for line in "".join(c_errors).splitlines() if line.strip())
+        # urdfdom's lines: "Error:   <what>" then "at line N in <its source file>", which means nothing to a user
+        detail = " ".join(line.strip().removeprefix("Error:").strip() for line in "".join(c_errors).splitlines()
+                          if line.strip() and not line.strip().startswith("at line "))
         raise InputError(f"Pinocchio cannot build a model from this URDF: {error}"
                          + (f" (urdfdom: {detail})" if detail else ""), source=str(path)) from None
     dirs = [str(p) for p in (package_dirs or [])] + [str(path.parent)]
