@@ -289,12 +289,11 @@ def _c_stderr_captured():
     """Capture what C++ code writes to file descriptor 2 (urdfdom prints its errors there), so it does not
     leak to the terminal ahead of robocal's own message; yields a list that receives the text."""
     captured: list[str] = []
+    fd = 2                    # C++ writes to descriptor 2 whatever Python's sys.stderr is at the moment
     try:
-        fd = sys.stderr.fileno()
-    except (AttributeError, OSError, ValueError):   # stderr replaced by an object without a descriptor
-        yield captured
-        return
-    sys.stderr.flush()
+        sys.stderr.flush()
+    except (AttributeError, OSError, ValueError):
+        pass
     saved = os.dup(fd)
     with tempfile.TemporaryFile() as tmp:
         os.dup2(tmp.fileno(), fd)
