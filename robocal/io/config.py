@@ -57,7 +57,10 @@ def read_yaml(path: Path):
         raise InputError(f"not a text file ({exc.reason})", source=str(path)) from None
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
-        where = "" if mark is None else f" at line {mark.line + 1}"
+        line = mark.line + 1 if mark is not None else None
+        if line is None and isinstance(getattr(exc, "position", None), int):   # a ReaderError: a bad character
+            line = path.read_text(encoding="utf-8", errors="replace")[:exc.position].count("\n") + 1
+        where = "" if line is None else f" at line {line}"
         problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
         raise InputError(f"not valid YAML{where}: {problem}", source=str(path)) from None
 
@@ -117,8 +120,10 @@ def setup_from_config(raw, base_dir: str | Path, source: str, *, table: Table | 
     def table_of(block: Cfg) -> Table:
         if table is not None:
             return table
-        name = block.get("csv", types=str) or data.get("csv", required=True, types=str)
-        p = (base_dir / name).resolve()
+        owner, key = (block, "csv") if "csv" in block.value else (data, "csv")
+        p = (base_dir / owner.get(key, required=True, types=str)).resolve()
+        if not p.is_file():
+            raise owner.error(f"data file not found: {p}", key)
         if str(p) not in tables:
             tables[str(p)] = read_csv(p)
         return tables[str(p)]

@@ -11,7 +11,7 @@ from robocal.estimation.calibrate import CalibrationOptions
 from robocal.io.config_keys import Cfg
 from robocal.io.tables import Table
 from robocal.model.approach import ApproachSpec, table_directions
-from robocal.model.parameters import ParameterSet, robot_parameters
+from robocal.model.parameters import COMPONENTS, ParameterSet, robot_parameters
 
 
 def is_prismatic(robot, joint: str) -> bool:
@@ -33,9 +33,15 @@ def parameters_from_config(cfg: Cfg, robot, chain: list[str]) -> ParameterSet:
         cfg = Cfg({}, cfg.path, cfg.source)
     cfg.require_mapping()
     joints = cfg.get("joints", chain, types=list)
-    fr = cfg.get("frames", {}, types=dict)
-    frames_sel = {k: (True if v is True else list(v)) for k, v in fr.items() if v}
+    frames_sel = {}
+    for name, v in cfg.get("frames", {}, types=dict).items():
+        if v is not True and v is not False and not (isinstance(v, list) and set(map(str, v)) <= set(COMPONENTS)):
+            raise cfg.child("frames").error(f"expected true or a list of {', '.join(COMPONENTS)}, got {v!r}", str(name))
+        if v:
+            frames_sel[str(name)] = True if v is True else [str(c) for c in v]
     base = cfg.get("base", False, types=(bool, list))
+    if isinstance(base, list) and not set(map(str, base)) <= set(COMPONENTS):
+        raise cfg.error(f"expected true or a list of {', '.join(COMPONENTS)}, got {base!r}", "base")
     try:
         return robot_parameters(robot, [str(j) for j in joints], cfg.get("preset", "full", types=str),
                                 frames_sel, base, cfg.get("compliance", False, types=(bool, list)),

@@ -102,8 +102,18 @@ def read_csv(path: str | Path) -> Table:
     path = Path(path)
     if not path.is_file():
         raise InputError("data file not found", source=str(path))
-    with path.open(newline="", encoding="utf-8") as f:
-        rows = [r for r in csv.reader(f) if r and any(c.strip() for c in r)]
+    reader = None
+    try:
+        with path.open(newline="", encoding="utf-8") as f:
+            reader = csv.reader(f)
+            rows = [r for r in reader if r and any(c.strip() for c in r)]
+    except UnicodeDecodeError as exc:
+        line = path.read_bytes()[:exc.start].count(b"\n") + 1
+        raise InputError(f"not UTF-8 text (byte {exc.object[exc.start]:#x}); save the file as UTF-8 CSV",
+                         source=str(path), row=line) from None
+    except csv.Error as exc:   # a NUL byte, an unterminated quote at the end
+        raise InputError(f"not a readable CSV file: {exc}", source=str(path),
+                         row=reader.line_num if reader is not None else None) from None
     if not rows:
         raise InputError("the file is empty", source=str(path))
     header = [h.strip() for h in rows[0]]

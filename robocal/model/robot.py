@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import difflib
 import os
+import re
 import sys
 import tempfile
 from contextlib import contextmanager
@@ -240,7 +241,8 @@ def _parse_urdf_text(path: Path) -> tuple[str, etree._ElementTree]:
         tree = etree.fromstring(text.encode("utf-8"), parser=etree.XMLParser(remove_comments=False))
     except etree.XMLSyntaxError as exc:
         # an XML line, not a data row: said as "line N"
-        raise InputError(f"not valid XML at line {exc.lineno}: {exc.msg}", source=str(path)) from None
+        raise InputError(f"not valid XML at line {exc.lineno}: {exc.msg.splitlines()[0].strip()}",
+                         source=str(path)) from None
     if tree.tag != "robot":
         raise InputError(f"not a URDF: the root element (line {tree.sourceline}) is <{tree.tag}>, expected <robot>",
                          source=str(path))
@@ -264,6 +266,11 @@ def _check_urdf_elements(tree, path: Path) -> None:
             raise InputError(f"joint '{j.get('name')}' (line {j.sourceline}) has type '{j.get('type')}'; "
                              "expected revolute, continuous, prismatic, fixed, floating or planar",
                              source=str(path), field=f"joint {j.get('name')}")
+        limit = j.find("limit")
+        if j.get("type") in ("revolute", "prismatic") and (limit is None or limit.get("effort") is None
+                                                           or limit.get("velocity") is None):
+            raise InputError(f"joint '{j.get('name')}' (line {j.sourceline}) needs <limit effort=... velocity=...> "
+                             "(and lower, upper)", source=str(path), field=f"joint {j.get('name')}")
         for tag in ("parent", "child"):
             e = j.find(tag)
             if e is None or e.get("link") not in links:
@@ -323,8 +330,10 @@ def load_urdf(path: str | Path, package_dirs: list[str | Path] | None = None) ->
         # urdfdom's lines: "Error:   <what>" then "at line N in <its source file>", which means nothing to a user
         detail = " ".join(line.strip().removeprefix("Error:").strip() for line in "".join(c_errors).splitlines()
                           if line.strip() and not line.strip().startswith("at line "))
+        named = re.search(r"(joint|link) \[([^\]]+)\]", detail)     # urdfdom names the element it rejects
         raise InputError(f"Pinocchio cannot build a model from this URDF: {error}"
-                         + (f" (urdfdom: {detail})" if detail else ""), source=str(path)) from None
+                         + (f" (urdfdom: {detail})" if detail else ""), source=str(path),
+                         field=f"{named.group(1)} {named.group(2)}" if named else "robot") from None
     dirs = [str(p) for p in (package_dirs or [])] + [str(path.parent)]
     robot = Robot(model=model, urdf_path=path, urdf_text=text, package_dirs=dirs,
                   name=tree.get("name", path.stem))
