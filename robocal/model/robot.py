@@ -6,11 +6,7 @@ Only kinematics and inertias are loaded (no meshes), which takes about a millise
 from __future__ import annotations
 
 import difflib
-import os
 import re
-import sys
-import tempfile
-from contextlib import contextmanager
 from dataclasses import dataclass, field
 from functools import lru_cache
 from importlib.metadata import PackageNotFoundError, distribution
@@ -21,6 +17,7 @@ import pinocchio as pin
 from lxml import etree
 
 from robocal.errors import FrameNotFound, InputError
+from robocal.model.urdf_check import c_stderr_captured, check_urdf_elements
 
 # Robots of the example-robot-data package, by the short names users type.
 EXAMPLES: dict[str, str] = {
@@ -246,71 +243,8 @@ def _parse_urdf_text(path: Path) -> tuple[str, etree._ElementTree]:
     if tree.tag != "robot":
         raise InputError(f"not a URDF: the root element (line {tree.sourceline}) is <{tree.tag}>, expected <robot>",
                          source=str(path))
-    _check_urdf_elements(tree, path)
+    check_urdf_elements(tree, path)
     return text, tree
-
-
-def _check_urdf_elements(tree, path: Path) -> None:
-    """What urdfdom would reject, named by line before it prints its own C++ errors to the terminal."""
-    links = {e.get("name") for e in tree.iter("link")}
-    if not links:
-        raise InputError("not a URDF: it has no <link> element", source=str(path))
-    for kind in ("link", "joint"):
-        for e in tree.iter(kind):
-            if e.getparent() is tree and not e.get("name"):
-                raise InputError(f"<{kind}> at line {e.sourceline} has no name attribute", source=str(path))
-    for j in tree.iter("joint"):
-        if j.getparent() is not tree:
-            continue
-        if j.get("type") not in ("revolute", "continuous", "prismatic", "fixed", "floating", "planar"):
-            raise InputError(f"joint '{j.get('name')}' (line {j.sourceline}) has type '{j.get('type')}'; "
-                             "expected revolute, continuous, prismatic, fixed, floating or planar",
-                             source=str(path), field=f"joint {j.get('name')}")
-        limit = j.find("limit")
-        if j.get("type") in ("revolute", "prismatic") and (limit is None or limit.get("effort") is None
-                                                           or limit.get("velocity") is None):
-            raise InputError(f"joint '{j.get('name')}' (line {j.sourceline}) needs <limit effort=... velocity=...> "
-                             "(and lower, upper)", source=str(path), field=f"joint {j.get('name')}")
-        for tag in ("parent", "child"):
-            e = j.find(tag)
-            if e is None or e.get("link") not in links:
-                raise InputError(f"joint '{j.get('name')}' (line {j.sourceline}): <{tag} link=...> names no link "
-                                 f"of this file", source=str(path), field=f"joint {j.get('name')}")
-    for e in tree.iter("origin", "axis", "limit"):
-        for attr in ("xyz", "rpy", "lower", "upper", "effort", "velocity"):
-            text = e.get(attr)
-            if text is None:
-                continue
-            try:
-                values = [float(v) for v in text.split()]
-            except ValueError:
-                values = []
-            if not values or not all(np.isfinite(values)) or (attr in ("xyz", "rpy") and len(values) != 3):
-                raise InputError(f"<{e.tag} {attr}=\"{text}\"> at line {e.sourceline} is not "
-                                 f"{'three numbers' if attr in ('xyz', 'rpy') else 'a number'}", source=str(path),
-                                 field=f"{e.tag}.{attr}")
-
-
-@contextmanager
-def _c_stderr_captured():
-    """Capture what C++ code writes to file descriptor 2 (urdfdom prints its errors there), so it does not
-    leak to the terminal ahead of robocal's own message; yields a list that receives the text."""
-    captured: list[str] = []
-    fd = 2                    # C++ writes to descriptor 2 whatever Python's sys.stderr is at the moment
-    try:
-        sys.stderr.flush()
-    except (AttributeError, OSError, ValueError):
-        pass
-    saved = os.dup(fd)
-    with tempfile.TemporaryFile() as tmp:
-        os.dup2(tmp.fileno(), fd)
-        try:
-            yield captured
-        finally:
-            os.dup2(saved, fd)
-            os.close(saved)
-            tmp.seek(0)
-            captured.append(tmp.read().decode("utf-8", errors="replace"))
 
 
 def load_urdf(path: str | Path, package_dirs: list[str | Path] | None = None) -> Robot:
@@ -321,7 +255,7 @@ def load_urdf(path: str | Path, package_dirs: list[str | Path] | None = None) ->
     path = Path(path).resolve()
     text, tree = _parse_urdf_text(path)
     error = None
-    with _c_stderr_captured() as c_errors:
+    with c_stderr_captured() as c_errors:
         try:
             model = pin.buildModelFromXML(text)
         except (RuntimeError, ValueError) as exc:
