@@ -65,3 +65,12 @@ def test_calibrate_force_keeps_a_users_folder_and_says_why(tmp_path, capsys):
     err = capsys.readouterr().err
     assert code == 2 and "--force replaces only a folder robocal wrote" in err and str(out) in err
     assert [p.name for p in out.iterdir()] == ["measurements_2026.csv"]
+
+
+def test_plan_force_keeps_a_users_folder(tmp_path, capsys):
+    out = tmp_path / "plan"
+    out.mkdir()
+    (out / "poses_by_hand.csv").write_text("pose\n1\n")
+    assert main(["plan", str(DEMO), "-o", str(out), "--force", "-q"]) == 2
+    assert "poses_by_hand.csv" in capsys.readouterr().err
+    assert [p.name for p in out.iterdir()] == ["poses_by_hand.csv"]

@@ -23,7 +23,7 @@ def plural(n: int, word: str) -> str:
     return f"{n} {word}{'' if n == 1 else 's'}"
 
 
-def check_data(setup, allow_failed: bool, quiet: bool) -> None:
+def check_data(setup, allow_failed: bool) -> None:
     """Refuse implausible data before any fit (a units mix-up); with --allow-failed only warn."""
     findings = units_findings(setup, nominal_states(setup))
     if findings and not allow_failed:
@@ -38,7 +38,7 @@ def cmd_calibrate(args) -> int:
     check_replaceable(out, args.force)
     if "iso9283" in setup.raw:
         iso9283_section(setup)            # a mistake there costs no fitting time
-    check_data(setup, args.allow_failed, args.quiet)
+    check_data(setup, args.allow_failed)
     p = setup.problem
     if not args.quiet:
         print(f"robocal: {setup.robot.name}: {plural(len(p.values), 'sample')}, "

@@ -4,9 +4,12 @@ from __future__ import annotations
 import sys
 
 from robocal.design.plan import plan_from_config, summary, write_plan
+from robocal.io.output import check_replaceable
 
 
 def cmd_plan(args) -> int:
+    if args.output:
+        check_replaceable(args.output, args.force)     # before the work, not only after it
     plan = plan_from_config(args.config, seed=args.seed)
     files = write_plan(plan, args.output, force=args.force)
     print(summary(plan))

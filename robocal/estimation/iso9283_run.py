@@ -111,9 +111,13 @@ def _commanded_columns(sec, setup, res, terms):
 
 
 def iso9283_from_config(config, parameters=None) -> Iso9283Run:
-    """Figures of the config's ISO rows for the nominal and the calibrated model (see module doc): the model
-    is fitted here, or its parameters come from a previous result.json (`parameters`)."""
-    setup = load_config(config)
+    """Figures of the config's ISO rows for the nominal and the calibrated model (see module doc)."""
+    return iso9283_from_setup(load_config(config), parameters)
+
+
+def iso9283_from_setup(setup, parameters=None) -> Iso9283Run:
+    """As iso9283_from_config for a setup already built: the model is fitted here, or its parameters come
+    from a previous result.json (`parameters`)."""
     iso9283_section(setup)
     nominal = setup.problem.params.copy()
     result = None
