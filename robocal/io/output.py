@@ -41,9 +41,9 @@ def check_replaceable(out_dir: str | Path, force: bool) -> None:
                          "another output)", source=str(out))
     try:
         listed = set(json.loads((out / MANIFEST).read_text(encoding="utf-8"))["files"])
+        has_manifest = True
     except (OSError, ValueError, KeyError, TypeError):
-        raise InputError(f"--force replaces only a folder robocal wrote, and this one has no {MANIFEST}; "
-                         "remove it yourself or choose another output folder", source=str(out)) from None
+        listed, has_manifest = set(), False
     foreign = []
     for p in sorted(out.rglob("*")):
         rel = p.relative_to(out).as_posix()
@@ -52,11 +52,15 @@ def check_replaceable(out_dir: str | Path, force: bool) -> None:
         if p.is_dir() and not p.is_symlink() and any(f.startswith(rel + "/") for f in listed):
             continue
         foreign.append(rel)
+    more = f" and {len(foreign) - _SHOWN} more" if len(foreign) > _SHOWN else ""
+    names = ", ".join(foreign[:_SHOWN]) + more
+    if not has_manifest:
+        raise InputError(f"--force replaces only a folder robocal wrote, and this one has no {MANIFEST}"
+                         + (f" (it holds {names})" if foreign else "")
+                         + "; remove it yourself or choose another output folder", source=str(out))
     if foreign:
-        more = f" and {len(foreign) - _SHOWN} more" if len(foreign) > _SHOWN else ""
-        raise InputError(f"the folder holds files robocal did not write ({', '.join(foreign[:_SHOWN])}{more}); "
-                         "--force replaces only what robocal wrote: move them or choose another output folder",
-                         source=str(out))
+        raise InputError(f"the folder holds files robocal did not write ({names}); --force replaces only what "
+                         "robocal wrote: move them or choose another output folder", source=str(out))
 
 
 def write_folder(out_dir: str | Path, files: dict[str, bytes], force: bool = False) -> dict[str, Path]:
