@@ -79,30 +79,39 @@ def nominal_states(setup) -> list:
     return states
 
 
-def units_findings(setup, states=None) -> list[InputError]:
-    """One InputError per block whose measured positions spread implausibly far from the model's."""
+def spread_ratios(setup, states=None) -> dict[str, tuple[float, float, float]]:
+    """{block name: (measured / model spread, measured spread m, model spread m)} of the blocks that
+    measure positions (pose, point, rigid_points) or lengths (ball_bar) and whose points the model moves."""
     problem = setup.problem
     states = nominal_states(setup) if states is None else states
-    aux_values = {p.name: p.value for p in problem.params}
-    findings = []
+    values = {p.name: p.value for p in problem.params}
+    out = {}
     for res in problem.residuals:
-        if res.type_name not in ("pose", "point", "rigid_points", "ball_bar") or not res.n_terms:
+        if res.type_name not in ("pose", "point", "rigid_points", "ball_bar") or res.n_terms < 2:
             continue
-        aux = [aux_values.get(p.name, p.value) for p in res.aux_parameters()]
+        aux = [values.get(p.name, p.value) for p in res.aux_parameters()]
         terms = np.unique(np.linspace(0, res.n_terms - 1, min(res.n_terms, MAX_SAMPLES)).astype(int))
         model = np.vstack([_model_points(res, states[int(res.samples[k])], aux) for k in terms])
         measured = np.vstack([_measured_points(res, res.measurements[k]) for k in terms])
         s_model, s_meas = _spread(model), _spread(measured)
-        if s_model < 1e-6 or len(terms) < 2:
-            continue   # the model does not move the points: nothing to compare
-        ratio = s_meas / s_model
+        if s_model >= 1e-6:          # else the model does not move the points: nothing to compare
+            out[res.name] = (s_meas / s_model, s_meas, s_model)
+    return out
+
+
+def units_findings(setup, states=None) -> list[InputError]:
+    """One InputError per block whose measured positions spread implausibly far from the model's."""
+    findings = []
+    blocks = {r.name: r for r in setup.problem.residuals}
+    for name, (ratio, s_meas, s_model) in spread_ratios(setup, states).items():
         if 1 / SCALE_LIMIT < ratio < SCALE_LIMIT:
             continue
+        res = blocks[name]
         what = "bar lengths are" if res.type_name == "ball_bar" else "positions spread"
         cols = ", ".join(res.columns[:3]) + (" ..." if len(res.columns) > 3 else "")
-        files = sorted({setup.sample_rows[int(res.samples[k])][0] for k in terms})
+        files = sorted({setup.sample_rows[int(i)][0] for i in np.unique(res.samples)})
         findings.append(InputError(
-            f"block '{res.name}' (columns {cols} of {', '.join(files)}): the measured {what} {ratio:.3g} times "
+            f"block '{name}' (columns {cols} of {', '.join(files)}): the measured {what} {ratio:.3g} times "
             f"the nominal model's ({s_meas * 1e3:.4g} mm against {s_model * 1e3:.4g} mm, read in "
             f"{setup.units['length']}); {_hint(ratio, setup.units['length'])}",
             source=setup.source or str(setup.config_path), field="data.units.length"))
