@@ -8,14 +8,14 @@ refused rather than silently misread.
 from __future__ import annotations
 
 import csv
-import os
-import tempfile
+import io
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from robocal.errors import InputError
+from robocal.io.text_files import write_atomic
 
 LENGTH_UNITS = {"m": 1.0, "mm": 1e-3}
 ANGLE_UNITS = {"rad": 1.0, "deg": np.pi / 180.0}
@@ -128,18 +128,12 @@ def read_csv(path: str | Path) -> Table:
 
 
 def write_csv(path: str | Path, columns: dict[str, np.ndarray], precision: int = 17) -> None:
-    """Write columns atomically (a temporary file renamed into place)."""
-    path = Path(path)
+    """Write columns atomically (robocal.io.text_files.write_atomic)."""
     names = list(columns)
     data = np.column_stack([np.asarray(columns[n], dtype=float) for n in names])
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w", newline="") as f:
-            w = csv.writer(f)
-            w.writerow(names)
-            for row in data:
-                w.writerow([f"{v:.{precision}g}" for v in row])
-        os.replace(tmp, path)
-    except BaseException:
-        os.unlink(tmp)
-        raise
+    text = io.StringIO(newline="")
+    w = csv.writer(text)
+    w.writerow(names)
+    for row in data:
+        w.writerow([f"{v:.{precision}g}" for v in row])
+    write_atomic(path, text.getvalue())
