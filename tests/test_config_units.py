@@ -111,3 +111,13 @@ def test_the_shipped_examples_pass_the_units_check(config):
     ratios = spread_ratios(load_config(config))
     assert ratios and all(0.5 < r < 2 for r, _, _ in ratios.values()), ratios
     assert not units_findings(load_config(config))
+
+
+def test_millimetres_too_small_for_the_reading_check_are_caught_by_the_spread():
+    """Millimetre data of a small workspace (every value under 50, so no cell looks implausible in metres)
+    still stops the fit: the measured spread is 1000 times the model's."""
+    setup = load_config(DEMO)
+    setup.problem.residuals[0].measurements[:, :3] *= 1000
+    (finding,) = units_findings(setup)
+    assert finding.field == "data.units.length" and "the data look like millimetres; the config says m" in str(finding)
+    assert "995" in str(finding)     # measured/model spread 0.995 x 1000, the figure a user can check
