@@ -6,7 +6,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from robocal.cli.main import main
+from robocal.cli.main import build_parser, main
 
 DEMO = Path(__file__).parents[1] / "robocal" / "io" / "demo"
 
@@ -130,7 +130,6 @@ def test_quiet_prints_only_the_summary_and_counts_are_singular(tmp_path, capsys)
 
 def test_every_argument_has_help_text():
     """Every option and positional of every command says what it is (`simulate --seed` and `config` did not)."""
-    from robocal.cli.main import build_parser
     parser = build_parser()
     sub = next(a for a in parser._actions if a.choices)     # argparse keeps sub-parsers only there
     missing = [f"{name} {' '.join(a.option_strings) or a.dest}" for name, p in sub.choices.items()

@@ -6,7 +6,7 @@ import pytest
 
 from robocal.cli.main import main
 from robocal.errors import InputError
-from robocal.io.output import MANIFEST, write_folder
+from robocal.io.output import MANIFEST, add_to_manifest, write_folder
 
 DEMO = Path(__file__).parents[1] / "robocal" / "io" / "demo" / "ur5_calibrate.yaml"
 
@@ -74,3 +74,13 @@ def test_plan_force_keeps_a_users_folder(tmp_path, capsys):
     assert main(["plan", str(DEMO), "-o", str(out), "--force", "-q"]) == 2
     assert "poses_by_hand.csv" in capsys.readouterr().err
     assert [p.name for p in out.iterdir()] == ["poses_by_hand.csv"]
+
+
+def test_a_report_added_later_is_robocals_too(tmp_path):
+    """`robocal report` writes report.html into a result folder: recorded, so --force may replace the folder."""
+    out = tmp_path / "out"
+    write_folder(out, {"result.json": b"{}"})
+    (out / "report.html").write_text("<html></html>")
+    add_to_manifest(out / "report.html")
+    write_folder(out, {"result.json": b"{}"}, force=True)
+    assert sorted(p.name for p in out.iterdir()) == [MANIFEST, "result.json"]

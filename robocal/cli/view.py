@@ -10,6 +10,7 @@ import webbrowser
 from pathlib import Path
 
 from robocal.errors import InputError
+from robocal.io.output import add_to_manifest
 from robocal.viz.scene import read_scene
 
 
@@ -90,5 +91,6 @@ def cmd_report(args) -> int:
     from robocal.viz.report import write_report   # matplotlib: the optional [viz] extra
 
     path = write_report(args.result, args.output, meshes=not args.no_meshes)
+    add_to_manifest(path)       # a report written into a result folder is robocal's: --force may replace it
     print(f"Wrote {path}")
     return 0

@@ -15,6 +15,7 @@ from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
 from robocal.errors import InputError
+from robocal.io.text_files import write_atomic
 from robocal.io.urdf_export import calibrated_urdf
 
 MANIFEST = ".robocal-manifest.json"
@@ -61,6 +62,21 @@ def check_replaceable(out_dir: str | Path, force: bool) -> None:
     if foreign:
         raise InputError(f"the folder holds files robocal did not write ({names}); --force replaces only what "
                          "robocal wrote: move them or choose another output folder", source=str(out))
+
+
+def add_to_manifest(path: str | Path) -> None:
+    """Record a file robocal has added to one of its output folders (`robocal report` writes report.html into
+    a result folder), so that --force may later replace the folder with it; a folder without a manifest is
+    left as it is."""
+    path = Path(path).resolve()
+    manifest = path.parent / MANIFEST
+    try:
+        doc = json.loads(manifest.read_text(encoding="utf-8"))
+        files = set(doc["files"])
+    except (OSError, ValueError, KeyError, TypeError):
+        return
+    doc["files"] = sorted(files | {path.name})
+    write_atomic(manifest, json.dumps(doc, indent=2) + "\n")
 
 
 def write_folder(out_dir: str | Path, files: dict[str, bytes], force: bool = False) -> dict[str, Path]:
