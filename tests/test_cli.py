@@ -6,7 +6,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from robocal.cli.main import main
+from robocal.cli.main import build_parser, main
 
 DEMO = Path(__file__).parents[1] / "robocal" / "io" / "demo"
 
@@ -15,7 +15,8 @@ def test_demo_writes_urdf_json_and_summary(tmp_path, capsys):
     out = tmp_path / "demo"
     assert main(["demo", "-o", str(out), "-q"]) == 0
     files = sorted(p.name for p in out.iterdir())
-    assert files == ["report.html", "result.json", "scene.json", "summary.txt", "ur5_robot_calibrated.urdf"]
+    assert files == [".robocal-manifest.json", "report.html", "result.json", "scene.json", "summary.txt",
+                     "ur5_robot_calibrated.urdf"]
     result = json.loads((out / "result.json").read_text())
     assert result["success"] and result["identifiability"]["rank"] == 30
     by_name = {p["name"]: p for p in result["parameters"]}
@@ -93,3 +94,44 @@ simulation: {seed: 3, perturb: {translation: 0.0, rotation: 0.003}}
         if p["identifiable"] and name.endswith(".offset") and "joint" in name and name != "table.offset":
             # truth perturbs every offset; identifiable ones that nothing absorbs match within 5 sigma
             assert abs(p["value"] - truth[name]) < 5 * p["stderr"] + 1e-9, name
+
+
+def test_version(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["--version"])
+    assert exc.value.code == 0 and capsys.readouterr().out.startswith("robocal ")
+
+
+def test_view_of_a_missing_folder_says_so_plainly(tmp_path, capsys):
+    assert main(["view", str(tmp_path / "MISSING"), "--html", str(tmp_path / "v.html")]) == 2
+    err = capsys.readouterr().err
+    assert "MISSING: no such folder" in err and "re-run" not in err
+    (tmp_path / "empty").mkdir()
+    assert main(["view", str(tmp_path / "empty"), "--html", str(tmp_path / "v.html")]) == 2
+    assert "no scene.json in this folder" in capsys.readouterr().err
+
+
+def test_quiet_prints_only_the_summary_and_counts_are_singular(tmp_path, capsys):
+    shutil.copy(DEMO / "ur5_calibrate.yaml", tmp_path / "c.yaml")
+    shutil.copy(DEMO / "ur5_tracker_poses.csv", tmp_path / "ur5_tracker_poses.csv")
+    assert main(["calibrate", str(tmp_path / "c.yaml"), "-q", "--no-report"]) == 0
+    captured = capsys.readouterr()
+    assert captured.err == "" and "RMS before" in captured.out and "Wrote" not in captured.out
+    assert main(["simulate", str(tmp_path / "c.yaml"), "-q", "--force"]) == 0
+    assert capsys.readouterr().out == ""
+    # one sample: "1 sample", not "1 samples" (the fit then stops: too few rows)
+    lines = (tmp_path / "ur5_tracker_poses.csv").read_text().splitlines()[:2]
+    (tmp_path / "ur5_tracker_poses.csv").write_text("\n".join(lines) + "\n")
+    (tmp_path / "c.yaml").write_text((tmp_path / "c.yaml").read_text().replace("preset: full", "preset: none")
+                                     .replace("base: true", "base: false").replace("{tool0: true}", "{tool0: [tz]}"))
+    main(["calibrate", str(tmp_path / "c.yaml"), "-o", str(tmp_path / "one"), "--no-report"])
+    assert "1 sample, 1 measurement in 1 block, 1 free parameter" in capsys.readouterr().err
+
+
+def test_every_argument_has_help_text():
+    """Every option and positional of every command says what it is (`simulate --seed` and `config` did not)."""
+    parser = build_parser()
+    sub = next(a for a in parser._actions if a.choices)     # argparse keeps sub-parsers only there
+    missing = [f"{name} {' '.join(a.option_strings) or a.dest}" for name, p in sub.choices.items()
+               for a in p._actions if not a.help]
+    assert not missing

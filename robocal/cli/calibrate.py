@@ -6,11 +6,11 @@ import sys
 from importlib.resources import files
 from pathlib import Path
 
-from robocal.errors import RobocalError
 from robocal.estimation.calibrate import calibrate
-from robocal.estimation.iso9283_run import iso9283_from_config
+from robocal.estimation.iso9283_run import iso9283_run, iso9283_section
 from robocal.io.config import load_config
-from robocal.io.output import write_results
+from robocal.io.data_check import nominal_states, units_findings
+from robocal.io.output import check_replaceable, write_results
 from robocal.viz.scene import scene_bytes
 
 
@@ -19,20 +19,38 @@ def _progress(it):
           f"damping {it.damping:9.3g}", file=sys.stderr, flush=True)
 
 
+def plural(n: int, word: str) -> str:
+    return f"{n} {word}{'' if n == 1 else 's'}"
+
+
+def check_data(setup, allow_failed: bool) -> None:
+    """Refuse implausible data before any fit (a units mix-up); with --allow-failed only warn."""
+    findings = units_findings(setup, nominal_states(setup))
+    if findings and not allow_failed:
+        raise findings[0]
+    for f in findings:
+        print(f"robocal: warning: {f} (going on: --allow-failed)", file=sys.stderr)
+
+
 def cmd_calibrate(args) -> int:
     setup = load_config(args.config)
     out = Path(args.output).resolve() if args.output else setup.output_dir
-    if out.exists() and not args.force:
-        raise RobocalError(f"{out}: output folder exists; pass --force to replace it")
+    check_replaceable(out, args.force)
+    if "iso9283" in setup.raw:
+        iso9283_section(setup)            # a mistake there costs no fitting time
+    check_data(setup, args.allow_failed)
     p = setup.problem
-    print(f"robocal: {setup.robot.name}: {len(p.values)} samples, {sum(r.n_terms for r in p.residuals)} "
-          f"measurements in {len(p.residuals)} blocks, {len(p.params.free_names)} free parameters", file=sys.stderr)
+    if not args.quiet:
+        print(f"robocal: {setup.robot.name}: {plural(len(p.values), 'sample')}, "
+              f"{plural(sum(r.n_terms for r in p.residuals), 'measurement')} in {plural(len(p.residuals), 'block')}, "
+              f"{plural(len(p.params.free_names), 'free parameter')}", file=sys.stderr)
     before = p.params.copy()      # the scene shows the model before and after the fit
     result = calibrate(p, setup.options, progress=None if args.quiet else _progress,
                        source=", ".join(str(t.path) for t in setup.tables.values()))
     extra = {"scene.json": scene_bytes(setup, result, before)}
-    iso = _iso9283(args.config, result) if "iso9283" in (setup.raw or {}) else None
-    if iso is not None:
+    iso = None
+    if "iso9283" in setup.raw:
+        iso = iso9283_run(setup, before, p.params, result).to_dict()
         extra["iso9283.json"] = (json.dumps(iso, indent=2) + "\n").encode()
     if not args.no_report and (setup.raw.get("output") or {}).get("report", True):
         try:
@@ -40,26 +58,21 @@ def cmd_calibrate(args) -> int:
             extra["report.html"] = report_bytes(result, extra["scene.json"], meshes=False,  # 1.5 MB, not 10
                                                 iso9283=iso)
         except ImportError as exc:   # matplotlib / meshcat come with the [viz] extra
-            print(f"robocal: no report.html ({exc.name} is not installed: pip install 'robocal[viz]')",
-                  file=sys.stderr)
-    files = write_results(setup.robot, result, out, force=args.force, allow_failed=args.allow_failed, extra=extra)
+            if not args.quiet:
+                print(f"robocal: no report.html ({exc.name} is not installed: pip install 'robocal[viz]')",
+                      file=sys.stderr)
+    written = write_results(setup.robot, result, out, force=args.force, allow_failed=args.allow_failed,
+                            extra=extra)
     print(result.summary())
-    print("\nWrote " + ", ".join(str(f) for f in files.values()))
+    if not args.quiet:
+        print("\nWrote " + ", ".join(str(f) for f in written.values()))
     if not result.success:
         print(f"\nrobocal: the fit is {result.status}; no calibrated URDF written "
-              f"(--allow-failed writes it anyway)" if "urdf" not in files else "", file=sys.stderr)
+              f"(--allow-failed writes it anyway)" if not any(n.endswith(".urdf") for n in written) else
+              f"\nrobocal: the fit is {result.status}; the calibrated URDF was written (--allow-failed)",
+              file=sys.stderr)
         return 3
     return 0
-
-
-def _iso9283(config, result) -> dict:
-    """ISO 9283 figures of the config's `iso9283:` rows with the parameters just fitted."""
-    import tempfile   # noqa: (removed below when calibrate builds its setup once)
-
-    with tempfile.TemporaryDirectory() as tmp:
-        fitted = Path(tmp) / "result.json"
-        fitted.write_text(result.to_json())
-        return iso9283_from_config(config, parameters=fitted).to_dict()
 
 
 def cmd_demo(args) -> int:
@@ -78,7 +91,9 @@ def add_parser(subparsers) -> None:
     d.add_argument("-o", "--output", help="output folder (default: ./robocal-demo-output)")
     d.set_defaults(handler=cmd_demo)
     for p in (c, d):
-        p.add_argument("--force", action="store_true", help="replace an output folder robocal wrote")
-        p.add_argument("-q", "--quiet", action="store_true", help="no progress display")
-        p.add_argument("--allow-failed", action="store_true", help="write the URDF even if the fit failed")
+        p.add_argument("--force", action="store_true",
+                       help="replace an output folder robocal wrote (refused if it holds other files)")
+        p.add_argument("-q", "--quiet", action="store_true", help="print only errors and the summary")
+        p.add_argument("--allow-failed", action="store_true",
+                       help="go on despite implausible data and write the URDF even if the fit failed")
         p.add_argument("--no-report", action="store_true", help="do not write report.html")

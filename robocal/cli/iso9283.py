@@ -7,7 +7,9 @@ from pathlib import Path
 
 from robocal.errors import InputError
 from robocal.estimation.iso9283 import summary
-from robocal.estimation.iso9283_run import iso9283_from_config
+from robocal.cli.calibrate import check_data
+from robocal.estimation.iso9283_run import iso9283_from_setup, iso9283_section
+from robocal.io.config import load_config
 from robocal.io.text_files import write_atomic
 
 
@@ -17,6 +19,8 @@ def add_parser(subparsers):
     p.add_argument("-o", "--output", help="write the figures as JSON (SI units) to this file")
     p.add_argument("--parameters", help="calibrated parameters from a previous result.json (no fit)")
     p.add_argument("--force", action="store_true", help="replace an existing output file")
+    p.add_argument("--allow-failed", action="store_true", help="go on despite implausible data (a units mix-up)")
+    p.add_argument("-q", "--quiet", action="store_true", help="print only errors and the figures")
     p.set_defaults(handler=cmd_iso9283)
     return p
 
@@ -26,7 +30,10 @@ def cmd_iso9283(args) -> int:
     out = Path(args.output).resolve() if getattr(args, "output", None) else None
     if out is not None and out.exists() and not getattr(args, "force", False):
         raise InputError("file exists; pass --force to replace it", source=str(out))
-    run = iso9283_from_config(args.config, getattr(args, "parameters", None))
+    setup = load_config(args.config)
+    iso9283_section(setup)
+    check_data(setup, getattr(args, "allow_failed", False))
+    run = iso9283_from_setup(setup, getattr(args, "parameters", None))
     if run.result is not None and not run.result.success:
         print(f"robocal: the calibration is {run.result.status}; calibrated figures are unreliable",
               file=sys.stderr)
@@ -34,5 +41,6 @@ def cmd_iso9283(args) -> int:
     print(summary([run.nominal, run.calibrated]))
     if out is not None:
         write_atomic(out, (json.dumps(run.to_dict(), indent=2) + "\n").encode())
-        print(f"\nWrote {out}")
+        if not getattr(args, "quiet", False):
+            print(f"\nWrote {out}")
     return 0

@@ -13,6 +13,7 @@ import numpy as np
 
 from robocal.cli import calibrate, identify, iso9283, plan, simulate, view
 from robocal.errors import RobocalError
+from robocal.io.output import robocal_version
 
 COMMANDS = (calibrate, simulate, plan, iso9283, view, identify)
 
@@ -20,6 +21,7 @@ COMMANDS = (calibrate, simulate, plan, iso9283, view, identify)
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="robocal", description="Calibrate robot models from measurements.")
     parser.add_argument("-v", "--verbose", action="store_true", help="log library messages")
+    parser.add_argument("--version", action="version", version=f"robocal {robocal_version()}")
     sub = parser.add_subparsers(dest="command", required=True)
     for command in COMMANDS:
         command.add_parser(sub)
@@ -28,7 +30,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING, format="%(name)s: %(message)s")
+    level = logging.INFO if args.verbose else logging.ERROR if getattr(args, "quiet", False) else logging.WARNING
+    logging.basicConfig(level=level, format="%(name)s: %(message)s")
     np.set_printoptions(precision=6, suppress=True)
     try:
         return args.handler(args)

@@ -4,13 +4,17 @@ from __future__ import annotations
 import sys
 
 from robocal.design.plan import plan_from_config, summary, write_plan
+from robocal.io.output import check_replaceable
 
 
 def cmd_plan(args) -> int:
+    if args.output:
+        check_replaceable(args.output, args.force)     # before the work, not only after it
     plan = plan_from_config(args.config, seed=args.seed)
     files = write_plan(plan, args.output, force=args.force)
     print(summary(plan))
-    print("\nWrote " + ", ".join(str(f) for f in files.values()))
+    if not getattr(args, "quiet", False):
+        print("\nWrote " + ", ".join(str(f) for f in files.values()))
     if not plan.selection.identifiability.ok:
         print("\nrobocal: the chosen poses leave parameters undetermined; increase plan.N or widen the "
               "candidates", file=sys.stderr)
@@ -20,9 +24,12 @@ def cmd_plan(args) -> int:
 
 def add_parser(subparsers):
     p = subparsers.add_parser("plan", help="choose poses to measure and predict the calibration's accuracy")
-    p.add_argument("config")
+    p.add_argument("config", help="calibration YAML with a plan: section (docs/experiment_design.md); the data "
+                                  "file need not exist")
     p.add_argument("-o", "--output", help="output folder (default: the config's plan.output.dir)")
     p.add_argument("--seed", type=int, default=None, help="override plan.seed")
-    p.add_argument("--force", action="store_true", help="replace existing output")
+    p.add_argument("--force", action="store_true",
+                   help="replace an output folder robocal wrote (refused if it holds other files)")
+    p.add_argument("-q", "--quiet", action="store_true", help="print only errors and the summary")
     p.set_defaults(handler=cmd_plan)
     return p

@@ -6,9 +6,12 @@ Like robocal.cli.main, this module owns the terminal; the library modules it cal
 from __future__ import annotations
 
 import sys
+import webbrowser
 from pathlib import Path
 
 from robocal.errors import InputError
+from robocal.io.output import add_to_manifest
+from robocal.viz.scene import read_scene
 
 
 def add_parser(subparsers) -> None:
@@ -28,12 +31,17 @@ def add_parser(subparsers) -> None:
 
 
 def _scene(folder: str):
-    from robocal.viz.scene import read_scene
-    return read_scene(Path(folder))
+    path = Path(folder)
+    if not path.exists():
+        raise InputError("no such folder (give the output folder of `robocal calibrate`)", source=str(path))
+    if path.is_dir() and not (path / "scene.json").is_file():
+        raise InputError("no scene.json in this folder: give the output folder of `robocal calibrate`",
+                         source=str(path))
+    return read_scene(path)
 
 
 def cmd_view(args) -> int:
-    from robocal.viz.meshcat_check import SceneView
+    from robocal.viz.meshcat_check import SceneView   # meshcat: the optional [viz] extra
 
     scene = _scene(args.result)
     n = len(scene["values"])
@@ -45,10 +53,9 @@ def cmd_view(args) -> int:
         out.write_text(view.static_html(args.sample - 1), encoding="utf-8")
         print(f"Wrote {out}")
         if args.open:
-            import webbrowser
             webbrowser.open(out.as_uri())
         return 0
-    import meshcat
+    import meshcat   # the optional [viz] extra
 
     vis = meshcat.Visualizer()          # starts meshcat-server and prints its URL
     if args.open:
@@ -81,8 +88,9 @@ def _step(view, n: int, k: int) -> int:
 
 
 def cmd_report(args) -> int:
-    from robocal.viz.report import write_report
+    from robocal.viz.report import write_report   # matplotlib: the optional [viz] extra
 
     path = write_report(args.result, args.output, meshes=not args.no_meshes)
+    add_to_manifest(path)       # a report written into a result folder is robocal's: --force may replace it
     print(f"Wrote {path}")
     return 0

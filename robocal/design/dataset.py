@@ -11,117 +11,118 @@ errors are, and (optionally) the true values of set-up quantities:
 
 Contact blocks (plane, sphere, cylinder, laser line) get their own rows (`samples:` in the block,
 default 20), marked in a `block` column with the block's name; observed rows are marked `observed`.
-The CSV goes to the config's data.csv (or -o) and the truth to `<csv stem>_truth.json` beside it.
+The CSV goes to the config's data.csv (or -o), in the config's `data.units` and `data.joint_units`, and
+the truth (SI) to `<csv stem>_truth.json` beside it.
 """
 from __future__ import annotations
 
-import copy
 import json
-import tempfile
 from pathlib import Path
 
 import numpy as np
-import yaml
 
-from robocal.io.config import Cfg, build_setup
-from robocal.io.tables import write_csv
-from robocal.errors import InputError
-from robocal.io.text_files import write_atomic
 from robocal.design.simulate import perturb, random_configurations, simulate_measurements
+from robocal.errors import InputError
+from robocal.io.config import data_units, joint_columns, read_yaml, robot_from_config, setup_from_config
+from robocal.io.config_keys import Cfg, check_keys
+from robocal.io.config_measurements import residual_class
+from robocal.io.config_sections import is_prismatic
+from robocal.io.tables import ANGLE_UNITS, LENGTH_UNITS, Table, write_csv
+from robocal.io.text_files import write_atomic
 
 QUAT_W = 6  # position of qw in a pose block's columns
 
 
 def simulate_dataset(config: str | Path, output: str | Path | None = None, seed: int | None = None,
                      force: bool = False) -> list[Path]:
+    """Write the synthetic CSV (in the config's data units) and its truth JSON; returns both paths."""
     config = Path(config).resolve()
-    raw = yaml.safe_load(config.read_text())
+    raw = read_yaml(config)
+    if not isinstance(raw, dict):
+        raise InputError("the config is empty or not a mapping of sections", source=str(config))
+    check_keys(raw, str(config))
     root = Cfg(raw, "", str(config))
     sim = root.child("simulation", {})
-    sim.check_keys(("seed", "samples", "perturb", "truth"))
-    rng = np.random.default_rng(sim.get("seed", 0, types=int) if seed is None else seed)
-    out = Path(output).resolve() if output else (config.parent / root.child("data").get("csv", required=True))
+    sim.require_mapping()
+    seed = sim.get("seed", 0, types=int) if seed is None else seed
+    rng = np.random.default_rng(seed)
+    data = root.child("data", {})
+    data.require_mapping()
+    out = Path(output).resolve() if output else (config.parent / data.get("csv", required=True, types=str)).resolve()
     truth_path = out.with_name(out.stem + "_truth.json")
     for p in (out, truth_path):
         if p.exists() and not force:
             raise InputError("file exists; pass --force to replace it", source=str(p))
 
-    from robocal.residuals import REGISTRY
-    from robocal.io.config import _robot
-
-    robot = _robot(root.child("robot"), config.parent)
-    blocks = root.get("measurements", required=True, types=list)
+    robot = robot_from_config(root.child("robot"), config.parent)
+    meas = root.child("measurements")
+    if not isinstance(meas.value, list) or not meas.value:
+        raise meas.error("need a list of at least one measurement block")
+    blocks = [Cfg(b, f"measurements[{i}]", str(config)) for i, b in enumerate(meas.value)]
     n_obs = sim.get("samples", 60, types=int)
-    rows_of, labels = [], []
+    if n_obs < 1:
+        raise sim.error("need at least one sample", "samples")
+    rows_of, labels, block_label = [], [], []
     for i, b in enumerate(blocks):
-        cls = REGISTRY.get(b.get("type"))
-        if cls is None:
-            raise InputError(f"unknown measurement type '{b.get('type')}'", source=str(config),
-                             field=f"measurements[{i}].type")
-        label = "observed" if cls.observed else b.get("name", f"{b['type']}{i}")
-        n = n_obs if cls.observed else int(b.get("samples", 20))
-        if cls.observed and "observed" in labels:
+        b.require_mapping()
+        cls = residual_class(b)
+        label = "observed" if cls.observed else b.get("name", f"{b.value['type']}{i}", types=str)
+        block_label.append(label)
+        if label in labels:
             continue
+        n = n_obs if cls.observed else b.get("samples", 20, types=int)
+        if n < 1:
+            raise b.error("need at least one sample", "samples")
         rows_of.append((label, n))
         labels.append(label)
+    frames = [b.get("frame", required=True, types=str) for b in blocks]
+    joint_cols = joint_columns(data, robot, frames)
+    units, joint_units = data_units(data)
+    joint_scale = [_unit_factor("length" if is_prismatic(robot, j) else "angle", joint_units) for j in joint_cols]
+
     # Provisional table: random readings, placeholder measurements; the real values come from the truth.
-    joint_names = _joint_names(raw, robot, blocks)
-    lo_span = sim.child("perturb", {})
     n_total = sum(n for _, n in rows_of)
-    q = random_configurations(robot, joint_names, n_total, rng, span=0.9)
-    jmap = (raw.get("data") or {}).get("joints")
-    cols = {(jmap[j] if isinstance(jmap, dict) else j): q[:, k] for k, j in enumerate(joint_names)}
+    q = random_configurations(robot, list(joint_cols), n_total, rng, span=0.9)
+    cols = {c: q[:, k] / joint_scale[k] for k, c in enumerate(joint_cols.values())}
     block_col = np.concatenate([[idx] * n for idx, (_, n) in enumerate(rows_of)])
-    meas_cols = []
     for b in blocks:
-        for c in b.get("columns", []) or []:
-            meas_cols.append(c)
+        names = [str(c) for c in b.get("columns", [], types=list)]
+        for c in names:
             cols[c] = np.zeros(n_total)
-    for b in blocks:
-        if b.get("type") == "pose":
-            cols[b["columns"][QUAT_W]] = np.ones(n_total)
-    with tempfile.TemporaryDirectory() as tmp:
-        tmp_csv = Path(tmp) / "provisional.csv"
-        write_csv(tmp_csv, {**cols, "block": block_col})
-        raw2 = copy.deepcopy(raw)
-        raw2.setdefault("data", {})["csv"] = str(tmp_csv)
-        for b in raw2["measurements"]:
-            cls = REGISTRY[b["type"]]
-            lab = "observed" if cls.observed else b.get("name", f"{b['type']}{raw2['measurements'].index(b)}")
-            b["where"] = {"block": labels.index(lab)}
-            b.pop("samples", None)
-            b.pop("csv", None)
-        raw2.pop("simulation", None)
-        setup = build_setup(Cfg(raw2, "", str(config)), config.parent, raw2)
+        if b.value["type"] == "pose" and len(names) > QUAT_W:
+            cols[names[QUAT_W]] = np.ones(n_total)
+    table = Table.from_columns(out, {**cols, "block": block_col})
+    block_rows = [np.flatnonzero(block_col == labels.index(lab)) for lab in block_label]
+    setup = setup_from_config(raw, config.parent, str(config), table=table, block_rows=block_rows)
     problem = setup.problem
-    truth = perturb(problem.params, rng, lo_span.get("translation", 2e-3), lo_span.get("rotation", np.radians(0.2)))
-    truth.set_values(sim.get("truth", {}, types=dict))
+    spans = sim.child("perturb", {})
+    spans.require_mapping()
+    truth = perturb(problem.params, rng, spans.number("translation", 2e-3), spans.number("rotation", np.radians(0.2)))
+    try:
+        truth.set_values(sim.get("truth", {}, types=dict))
+    except InputError as exc:
+        raise sim.error(exc.reason, "truth") from None
     simulate_measurements(problem, truth, rng)
-    # Gather: write every sample back to the provisional row it came from.
+    # Gather: write every sample back to the provisional row it came from, in the config's units.
     rows = np.array([r for _, r in setup.sample_rows], dtype=int)
     final = {}
     for k, j in enumerate(problem.joint_names):
         v = np.zeros(n_total)
-        v[rows] = problem.values[:, k]
+        v[rows] = problem.values[:, k] / joint_scale[k]
         final[setup.joint_columns[j]] = v
     for res in problem.residuals:
+        kinds = type(res).column_kinds(len(res.columns))
         for c, column in enumerate(res.columns):
             v = final.setdefault(column, np.zeros(n_total))
-            v[rows[res.samples]] = res.measurements[:, c]
+            v[rows[res.samples]] = res.measurements[:, c] / _unit_factor(kinds[c], units)
     final["block"] = block_col
     out.parent.mkdir(parents=True, exist_ok=True)
     write_csv(out, final)
-    truth_doc = {"seed": sim.get("seed", 0) if seed is None else seed, "block_labels": labels,
-                 "parameters": {p.name: p.value for p in truth}}
+    truth_doc = {"seed": seed, "block_labels": labels, "parameters": {p.name: p.value for p in truth}}
     write_atomic(truth_path, (json.dumps(truth_doc, indent=2) + "\n").encode())
     return [out, truth_path]
 
 
-def _joint_names(raw, robot, blocks) -> list[str]:
-    joints = (raw.get("data") or {}).get("joints")
-    if isinstance(joints, dict):
-        return list(joints)
-    if isinstance(joints, list):
-        return [str(j) for j in joints]
-    frames = [b["frame"] for b in blocks]
-    return [j for j in robot.joint_names if any(j in robot.supporting_joints(f) for f in frames)]
+def _unit_factor(kind: str, units: dict[str, str]) -> float:
+    """SI value of one unit of `kind` ('length', 'angle' or '' for unitless)."""
+    return {"length": LENGTH_UNITS, "angle": ANGLE_UNITS}[kind][units[kind]] if kind else 1.0

@@ -8,7 +8,7 @@ the data file need not exist (no measurements are read). All keys are optional:
       N: 30                   # poses to choose
       criterion: D            # D, E, A, I, O1 ... O5 (robocal.design.criteria)
       seed: 1                 # candidate and validation draws
-      noise: {position: 5.0e-5, orientation: 5.0e-5}   # replaces every measurement block's sigma (SI)
+      noise: {position: 5.0e-5, orientation: 5.0e-5}   # replaces every block's sigma (data units)
       candidates: {method: random, count: 1000, margin: 0.05,  # or method: grid, levels: 4 (or a list)
                    min_singular: 0.02, length_scale: 0.5}
       volume: {box: {min: [x, y, z], max: [x, y, z]}, sphere: {center: [x, y, z], max_range: 4.0, min_range: 0.5}}
@@ -21,17 +21,18 @@ joint units), prediction.json, accuracy_map.csv, accuracy_curve.csv, summary.txt
 """
 from __future__ import annotations
 
-import copy
 import json
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import yaml
 
-from robocal.io.config import TOP_KEYS, Cfg, _robot, build_setup, read_yaml
-from robocal.io.tables import ANGLE_UNITS, LENGTH_UNITS, write_csv
+from robocal.io.config import data_units, joint_columns, read_yaml, robot_from_config, setup_from_config
+from robocal.io.config_keys import Cfg, check_keys
+from robocal.io.config_measurements import residual_class
+from robocal.io.config_sections import is_prismatic
+from robocal.io.tables import ANGLE_UNITS, LENGTH_UNITS, Table
 from robocal.design.selection import DesignMatrix, PoseSelection, select_poses
 from robocal.design.candidates import CandidateFilter, MeasurementVolume, filter_candidates, grid_candidates, \
     random_candidates
@@ -42,10 +43,7 @@ from robocal.io.output import write_folder
 from robocal.model.parameters import ParameterSet
 from robocal.design.prediction import (CurvePoint, ParameterPrediction, PosePrediction, accuracy_curve, pose_jacobians,
                          position_weight, predict_parameters, predict_pose_accuracy)
-from robocal.residuals import REGISTRY
 
-PLAN_KEYS = ("frame", "N", "criterion", "seed", "noise", "candidates", "volume", "validation", "curve", "output")
-CANDIDATE_KEYS = ("method", "count", "margin", "levels", "min_singular", "length_scale")
 
 
 @dataclass
@@ -76,12 +74,14 @@ class Plan:
 def plan_from_config(path: str | Path, seed: int | None = None) -> Plan:
     path = Path(path).resolve()
     raw = read_yaml(path)
+    if not isinstance(raw, dict):
+        raise InputError("the config is empty or not a mapping of sections", source=str(path))
+    check_keys(raw, str(path))
     root = Cfg(raw, "", str(path))
-    root.check_keys(tuple(TOP_KEYS) + ("plan",))
     plan = root.child("plan", {})
-    plan.check_keys(PLAN_KEYS)
+    plan.require_mapping()
     base_dir = path.parent
-    robot = _robot(root.child("robot"), base_dir)
+    robot = robot_from_config(root.child("robot"), base_dir)
     blocks = root.get("measurements", required=True, types=list)
     frames = [b.get("frame") for b in blocks if isinstance(b, dict)]
     frame = plan.get("frame", frames[0] if frames else None, types=str)
@@ -91,12 +91,16 @@ def plan_from_config(path: str | Path, seed: int | None = None) -> Plan:
         robot.frame_id(frame)
     except InputError as exc:
         raise plan.error(exc.reason, "frame") from None
-    joint_names, joint_cols = _joints(raw, robot, frames, root)
+    data = root.child("data", {})
+    data.require_mapping()
+    joint_cols = joint_columns(data, robot, [f for f in frames if isinstance(f, str)])
+    joint_names = list(joint_cols)
+    _, joint_units = data_units(data)
     rng = np.random.default_rng(plan.get("seed", 0, types=int) if seed is None else seed)
 
     # Candidates, screened on the nominal robot.
     cand = plan.child("candidates", {})
-    cand.check_keys(CANDIDATE_KEYS)
+    cand.require_mapping()
     method = cand.get("method", "random", types=str)
     margin = float(cand.get("margin", 0.05, types=(int, float)))
     if method == "random":
@@ -117,7 +121,7 @@ def plan_from_config(path: str | Path, seed: int | None = None) -> Plan:
         raise plan.error(f"all {len(proposed)} candidates were dropped ({screening.dropped})", "candidates")
     candidates = proposed[screening.kept]
 
-    problem = _candidate_problem(raw, root, plan, base_dir, joint_names, joint_cols, candidates)
+    problem = _candidate_problem(raw, root, plan, robot, joint_cols, joint_units, candidates)
     design = DesignMatrix.from_problem(problem)
     candidates = problem.values.copy()      # contact candidates now sit on their (nominal) contact
     validation = random_candidates(robot, joint_names, plan.get("validation", 200, types=int), rng, margin)
@@ -138,61 +142,39 @@ def plan_from_config(path: str | Path, seed: int | None = None) -> Plan:
     counts = [int(c) for c in counts if 1 <= int(c) <= design.n_candidates]
     curve = accuracy_curve(design, counts, G, criterion, W=W)
     out = plan.child("output", {})
-    out.check_keys(("dir",))
-    jn = (raw.get("data") or {}).get("joint_units") or {}
-    units = {"length": jn.get("length", "m"), "angle": jn.get("angle", "rad")}
-    prismatic = [robot.model.joints[robot.joint_id(j)].shortname().startswith("JointModelP") for j in joint_names]
-    return Plan(path, frame, joint_names, joint_cols, candidates, screening, design, selection, params,
-                validation, xyz, accuracy, curve, (base_dir / out.get("dir", "robocal-plan", types=str)).resolve(),
-                units, prismatic, {p.name: p.unit for p in problem.params})
+    out.require_mapping()
+    prismatic = [is_prismatic(robot, j) for j in joint_names]
+    return Plan(path, frame, joint_names, list(joint_cols.values()), candidates, screening, design, selection,
+                params, validation, xyz, accuracy, curve,
+                (base_dir / out.get("dir", "robocal-plan", types=str)).resolve(), joint_units, prismatic,
+                {p.name: p.unit for p in problem.params})
 
 
-def _joints(raw, robot, frames, root) -> tuple[list[str], list[str]]:
-    joints = (raw.get("data") or {}).get("joints")
-    if isinstance(joints, dict):
-        return [str(k) for k in joints], [str(v) for v in joints.values()]
-    if isinstance(joints, list):
-        return [str(j) for j in joints], [str(j) for j in joints]
-    if joints is not None:
-        raise root.child("data").error("expected a list of joint names or a mapping joint -> column", "joints")
-    names = [j for j in robot.joint_names if any(j in robot.supporting_joints(f) for f in frames if f)]
-    return names, names
-
-
-def _candidate_problem(raw, root, plan, base_dir, joint_names, joint_cols, candidates):
-    """The calibration problem of the config with one sample per candidate (placeholder measurements)."""
-    raw2 = copy.deepcopy(raw)
-    raw2.pop("plan", None)
-    raw2.pop("simulation", None)
-    noise = plan.get("noise")
-    cols = {c: candidates[:, k] for k, c in enumerate(joint_cols)}
-    for i, b in enumerate(raw2["measurements"]):
-        cls = REGISTRY.get(b.get("type")) if isinstance(b, dict) else None
-        if cls is None:
-            raise Cfg(b, f"measurements[{i}]", root.source).error(
-                f"unknown measurement type (known: {', '.join(sorted(REGISTRY))})", "type")
-        if not cls.observed and len(raw2["measurements"]) > 1:
+def _candidate_problem(raw, root, plan, robot, joint_cols, joint_units, candidates):
+    """The calibration problem of the config with one sample per candidate (placeholder measurements),
+    read from an in-memory table in the config's joint units."""
+    blocks = [Cfg(b, f"measurements[{i}]", root.source) for i, b in enumerate(raw["measurements"])]
+    cols = {}
+    for k, (j, c) in enumerate(joint_cols.items()):
+        kind = "length" if is_prismatic(robot, j) else "angle"
+        unit = (LENGTH_UNITS if kind == "length" else ANGLE_UNITS)[joint_units[kind]]
+        cols[c] = candidates[:, k] / unit
+    for b in blocks:
+        b.require_mapping()
+        cls = residual_class(b)
+        if not cls.observed and len(blocks) > 1:
             # each candidate is moved onto its contact, so a contact block cannot share candidates
-            raise Cfg(b, f"measurements[{i}]", root.source).error(
-                "robocal plan takes a contact block (plane, sphere, cylinder, laser line) as the only "
-                "measurement block; plan mixes from Python (robocal.design.selection)", "type")
-        b.pop("csv", None)
-        b.pop("where", None)
-        if noise is not None:
-            b["sigma"] = noise
-        for c in b.get("columns", []) or []:
-            cols.setdefault(str(c), np.zeros(len(candidates)))
-        if b.get("type") == "pose" and len(b.get("columns", [])) == 7:
-            cols[str(b["columns"][6])] = np.ones(len(candidates))    # qw of an identity placeholder
-    data = raw2.setdefault("data", {}) or {}
-    raw2["data"] = data
-    data.pop("units", None)
-    data.pop("joint_units", None)          # the candidates are written in SI
-    with tempfile.TemporaryDirectory() as tmp:
-        csv = Path(tmp) / "candidates.csv"
-        write_csv(csv, cols)
-        data["csv"] = str(csv)
-        setup = build_setup(Cfg(raw2, "", root.source), base_dir, raw2)
+            raise b.error("robocal plan takes a contact block (plane, sphere, cylinder, laser line) as the only "
+                          "measurement block; plan mixes from Python (robocal.design.selection)", "type")
+        names = [str(c) for c in b.get("columns", [], types=list)]
+        for c in names:
+            cols.setdefault(c, np.zeros(len(candidates)))
+        if b.value.get("type") == "pose" and len(names) == 7:
+            cols[names[6]] = np.ones(len(candidates))    # qw of an identity placeholder
+    table = Table.from_columns(Path(root.source).with_name("plan candidates (in memory)"), cols)
+    every_row = [np.arange(len(candidates))] * len(blocks)
+    setup = setup_from_config(raw, Path(root.source).parent, root.source, table=table, block_rows=every_row,
+                              sigma=plan.get("noise"))
     return setup.problem
 
 

@@ -23,10 +23,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-import yaml
 
 from robocal.estimation.calibrate import CalibrationOptions, calibrate
-from robocal.io.config import Cfg, Setup, build_setup
+from robocal.io.config import Setup, read_yaml, setup_from_config
+from robocal.io.tables import read_csv
 from robocal.errors import InputError
 from robocal.model.kinematics import ModelState
 from robocal.model.parameters import ParameterSet
@@ -216,15 +216,11 @@ def setup_for_data(config: str | Path, csv: str | Path | None = None, parameters
     parameters: keys merged into the config's `parameters` section (e.g. {"priors": {...}}).
     """
     path = Path(config).resolve()
-    raw = copy.deepcopy(yaml.safe_load(path.read_text(encoding="utf-8")))
-    if csv is not None:
-        raw.setdefault("data", {})["csv"] = str(csv)
-        for block in raw.get("measurements", []) or []:
-            if isinstance(block, dict):
-                block.pop("csv", None)
-    if parameters:
-        raw["parameters"] = {**(raw.get("parameters") or {}), **parameters}
-    return build_setup(Cfg(raw, "", str(path)), path.parent, raw)
+    raw = read_yaml(path)
+    if parameters and isinstance(raw, dict):
+        raw = {**raw, "parameters": {**(raw.get("parameters") or {}), **parameters}}
+    table = None if csv is None else read_csv((path.parent / csv).resolve())
+    return setup_from_config(raw, path.parent, str(path), table=table)
 
 
 RANGE_MARGIN = 0.05     # rad or m: how far past a reference range a reading may lie and still count as inside

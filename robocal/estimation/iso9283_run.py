@@ -24,12 +24,12 @@ from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
-import yaml
-
 from robocal.errors import InputError
-from robocal.estimation.iso9283 import Iso9283Figures, group_visits, iso9283_figures, model_attained, pose6, summary
-
-SECTION_KEYS = ("pose_id", "measurement", "commanded", "distance_pairs")
+from robocal.estimation.calibrate import calibrate
+from robocal.estimation.iso9283 import Iso9283Figures, group_visits, iso9283_figures, model_attained, pose6
+from robocal.io.config import load_config
+from robocal.io.config_keys import Cfg
+from robocal.model.kinematics import ModelState
 
 
 @dataclass
@@ -45,21 +45,12 @@ class Iso9283Run:
                 "calibration_status": None if self.result is None else self.result.status}
 
 
-def _read_section(path: Path):
-    from robocal.io.config import TOP_KEYS, Cfg
-    if not path.is_file():
-        raise InputError("config file not found", source=str(path))
-    try:
-        raw = yaml.safe_load(path.read_text(encoding="utf-8")) or {}
-    except yaml.YAMLError as exc:
-        raise InputError(f"not valid YAML: {exc}", source=str(path)) from exc
-    if not isinstance(raw, dict):
-        raise InputError("expected a mapping at the top level", source=str(path))
-    sec = Cfg(raw.get("iso9283"), "iso9283", str(path))
+def iso9283_section(setup) -> Cfg:
+    """The config's `iso9283:` section, checked before any fitting so a mistake costs no time."""
+    sec = Cfg(setup.raw.get("iso9283"), "iso9283", setup.source)
     if sec.value is None:
         raise sec.error("the config needs an 'iso9283' section (pose_id, measurement, commanded)")
-    sec.check_keys(SECTION_KEYS)
-    # checked before any fitting, so a mistake costs no time
+    sec.require_mapping()
     sec.get("pose_id", required=True, types=str)
     cols = sec.get("commanded", types=list)
     if cols is not None and len(cols) != 7:
@@ -67,10 +58,8 @@ def _read_section(path: Path):
     pairs = sec.get("distance_pairs", types=list)
     if pairs is not None and not all(isinstance(p, list) and len(p) == 2 for p in pairs):
         raise sec.error("expected a list of [pose, pose] pairs", "distance_pairs")
-    rest = {k: v for k, v in raw.items() if k != "iso9283" and k != "simulation"}
-    root = Cfg(rest, "", str(path))
-    root.check_keys(TOP_KEYS)
-    return sec, root, rest
+    _pose_block(setup.problem, sec)
+    return sec
 
 
 def _pose_block(problem, sec):
@@ -105,7 +94,7 @@ def _commanded_columns(sec, setup, res, terms):
     cols = sec.get("commanded", types=list)
     if cols is None:
         return None
-    length_unit = ((setup.raw.get("data") or {}).get("units") or {}).get("length", "m")
+    length_unit = setup.units["length"]
     out = []
     for k in terms:
         file, row = setup.sample_rows[int(res.samples[k])]
@@ -123,13 +112,26 @@ def _commanded_columns(sec, setup, res, terms):
 
 def iso9283_from_config(config, parameters=None) -> Iso9283Run:
     """Figures of the config's ISO rows for the nominal and the calibrated model (see module doc)."""
-    from robocal.estimation.calibrate import calibrate
-    from robocal.io.config import build_setup
-    from robocal.model.kinematics import ModelState
+    return iso9283_from_setup(load_config(config), parameters)
 
-    path = Path(config).resolve()
-    sec, root, rest = _read_section(path)
-    setup = build_setup(root, path.parent, rest)
+
+def iso9283_from_setup(setup, parameters=None) -> Iso9283Run:
+    """As iso9283_from_config for a setup already built: the model is fitted here, or its parameters come
+    from a previous result.json (`parameters`)."""
+    iso9283_section(setup)
+    nominal = setup.problem.params.copy()
+    result = None
+    if parameters is not None:
+        _apply_result(setup.problem.params, Path(parameters))
+    else:
+        result = calibrate(setup.problem, setup.options, source=setup.source)
+    return iso9283_run(setup, nominal, setup.problem.params, result)
+
+
+def iso9283_run(setup, nominal_params, calibrated_params, result=None) -> Iso9283Run:
+    """ISO 9283 figures of a setup's `iso9283:` rows under the nominal and the calibrated parameters
+    (`robocal calibrate` passes the parameters it has just fitted; nothing is read again)."""
+    sec = iso9283_section(setup)
     problem = setup.problem
     res = _pose_block(problem, sec)
     id_col = sec.get("pose_id", required=True, types=str)
@@ -142,16 +144,10 @@ def iso9283_from_config(config, parameters=None) -> Iso9283Run:
     values = problem.values[res.samples[terms]]
     measured = [pin.SE3(pin.Quaternion(m[6], m[3], m[4], m[5]).toRotationMatrix(), m[:3].copy())
                 for m in res.measurements[terms]]
-    nominal_params = problem.params.copy()
-    result = None
-    if parameters is not None:
-        _apply_result(problem.params, Path(parameters))
-    else:
-        result = calibrate(problem, setup.options, source=str(path))
     groups = group_visits(ids)
     q_c = {pid: values[rows].mean(axis=0) for pid, rows in groups.items()}
     nominal_ms = ModelState(setup.robot, nominal_params, problem.joint_names)
-    calibrated_ms = ModelState(setup.robot, problem.params, problem.joint_names)
+    calibrated_ms = ModelState(setup.robot, calibrated_params, problem.joint_names)
     fk = {name: {pid: ms.sample(q).pose(res.frame) for pid, q in q_c.items()}
           for name, ms in (("nominal", nominal_ms), ("calibrated", calibrated_ms))}
     commanded = _commanded_columns(sec, setup, res, terms) or [fk["nominal"][pid] for pid in ids]

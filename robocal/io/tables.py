@@ -8,14 +8,14 @@ refused rather than silently misread.
 from __future__ import annotations
 
 import csv
-import os
-import tempfile
+import io
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from robocal.errors import InputError
+from robocal.io.text_files import write_atomic
 
 LENGTH_UNITS = {"m": 1.0, "mm": 1e-3}
 ANGLE_UNITS = {"rad": 1.0, "deg": np.pi / 180.0}
@@ -62,6 +62,15 @@ class Table:
             out[k] = v
         return to_si(out, kind, unit, self, name, idx)
 
+    @classmethod
+    def from_columns(cls, path: str | Path, columns: dict[str, np.ndarray]) -> "Table":
+        """An in-memory table (nothing is written; `path` only names it in messages). Numbers are kept
+        exactly: each cell is the shortest text that reads back as the same float."""
+        names = list(columns)
+        data = [np.asarray(columns[n], dtype=float).reshape(-1) for n in names]
+        n = len(data[0]) if data else 0
+        return cls(Path(path), names, [[repr(float(c[i])) for c in data] for i in range(n)])
+
     def rows_where(self, column: str, value) -> np.ndarray:
         if column not in self.header:
             raise InputError("missing column used in 'where'", source=str(self.path), field=column)
@@ -93,8 +102,18 @@ def read_csv(path: str | Path) -> Table:
     path = Path(path)
     if not path.is_file():
         raise InputError("data file not found", source=str(path))
-    with path.open(newline="", encoding="utf-8") as f:
-        rows = [r for r in csv.reader(f) if r and any(c.strip() for c in r)]
+    reader = None
+    try:
+        with path.open(newline="", encoding="utf-8") as f:
+            reader = csv.reader(f)
+            rows = [r for r in reader if r and any(c.strip() for c in r)]
+    except UnicodeDecodeError as exc:
+        line = path.read_bytes()[:exc.start].count(b"\n") + 1
+        raise InputError(f"not UTF-8 text (byte {exc.object[exc.start]:#x}); save the file as UTF-8 CSV",
+                         source=str(path), row=line) from None
+    except csv.Error as exc:   # a NUL byte, an unterminated quote at the end
+        raise InputError(f"not a readable CSV file: {exc}", source=str(path),
+                         row=reader.line_num if reader is not None else None) from None
     if not rows:
         raise InputError("the file is empty", source=str(path))
     header = [h.strip() for h in rows[0]]
@@ -109,18 +128,12 @@ def read_csv(path: str | Path) -> Table:
 
 
 def write_csv(path: str | Path, columns: dict[str, np.ndarray], precision: int = 17) -> None:
-    """Write columns atomically (a temporary file renamed into place)."""
-    path = Path(path)
+    """Write columns atomically (robocal.io.text_files.write_atomic)."""
     names = list(columns)
     data = np.column_stack([np.asarray(columns[n], dtype=float) for n in names])
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w", newline="") as f:
-            w = csv.writer(f)
-            w.writerow(names)
-            for row in data:
-                w.writerow([f"{v:.{precision}g}" for v in row])
-        os.replace(tmp, path)
-    except BaseException:
-        os.unlink(tmp)
-        raise
+    text = io.StringIO(newline="")
+    w = csv.writer(text)
+    w.writerow(names)
+    for row in data:
+        w.writerow([f"{v:.{precision}g}" for v in row])
+    write_atomic(path, text.getvalue())

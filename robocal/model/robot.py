@@ -6,6 +6,7 @@ Only kinematics and inertias are loaded (no meshes), which takes about a millise
 from __future__ import annotations
 
 import difflib
+import re
 from dataclasses import dataclass, field
 from functools import lru_cache
 from importlib.metadata import PackageNotFoundError, distribution
@@ -16,6 +17,7 @@ import pinocchio as pin
 from lxml import etree
 
 from robocal.errors import FrameNotFound, InputError
+from robocal.model.urdf_check import c_stderr_captured, check_urdf_elements
 
 # Robots of the example-robot-data package, by the short names users type.
 EXAMPLES: dict[str, str] = {
@@ -235,10 +237,13 @@ def _parse_urdf_text(path: Path) -> tuple[str, etree._ElementTree]:
     try:
         tree = etree.fromstring(text.encode("utf-8"), parser=etree.XMLParser(remove_comments=False))
     except etree.XMLSyntaxError as exc:
-        raise InputError(f"not valid XML: {exc.msg}", source=str(path), row=exc.lineno) from exc
+        # an XML line, not a data row: said as "line N"
+        raise InputError(f"not valid XML at line {exc.lineno}: {exc.msg.splitlines()[0].strip()}",
+                         source=str(path)) from None
     if tree.tag != "robot":
-        raise InputError(f"not a URDF: the root element is <{tree.tag}>, expected <robot>",
-                         source=str(path), row=tree.sourceline)
+        raise InputError(f"not a URDF: the root element (line {tree.sourceline}) is <{tree.tag}>, expected <robot>",
+                         source=str(path))
+    check_urdf_elements(tree, path)
     return text, tree
 
 
@@ -249,10 +254,20 @@ def load_urdf(path: str | Path, package_dirs: list[str | Path] | None = None) ->
     """
     path = Path(path).resolve()
     text, tree = _parse_urdf_text(path)
-    try:
-        model = pin.buildModelFromXML(text)
-    except (RuntimeError, ValueError) as exc:
-        raise InputError(f"Pinocchio cannot build a model from this URDF: {exc}", source=str(path)) from exc
+    error = None
+    with c_stderr_captured() as c_errors:
+        try:
+            model = pin.buildModelFromXML(text)
+        except (RuntimeError, ValueError) as exc:
+            error = exc
+    if error is not None:
+        # urdfdom's lines: "Error:   <what>" then "at line N in <its source file>", which means nothing to a user
+        detail = " ".join(line.strip().removeprefix("Error:").strip() for line in "".join(c_errors).splitlines()
+                          if line.strip() and not line.strip().startswith("at line "))
+        named = re.search(r"(joint|link) \[([^\]]+)\]", detail)     # urdfdom names the element it rejects
+        raise InputError(f"Pinocchio cannot build a model from this URDF: {error}"
+                         + (f" (urdfdom: {detail})" if detail else ""), source=str(path),
+                         field=f"{named.group(1)} {named.group(2)}" if named else "robot") from None
     dirs = [str(p) for p in (package_dirs or [])] + [str(path.parent)]
     robot = Robot(model=model, urdf_path=path, urdf_text=text, package_dirs=dirs,
                   name=tree.get("name", path.stem))

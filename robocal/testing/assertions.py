@@ -18,16 +18,15 @@ from typing import Callable, Sequence
 
 import numpy as np
 import pinocchio as pin
-import yaml
 from scipy import stats
 
 from robocal.design.simulate import perturb, random_configurations, simulate_measurements
+from robocal.io.config import read_yaml, setup_from_config
 from robocal.errors import InputError, RobocalError
 from robocal.estimation.calibrate import CalibrationOptions, calibrate
 from robocal.estimation.identifiability import select_base_parameters
 from robocal.estimation.problem import Problem
 from robocal.estimation.result import UNIT_SCALE, block_statistics
-from robocal.io.config import TOP_KEYS, Cfg, build_setup
 from robocal.io.text_files import numbers_in
 from robocal.model.kinematics import ModelState
 from robocal.model.loops import assemble
@@ -253,18 +252,14 @@ def _tolerances(value, kind: str) -> dict[str, float]:
 def dataset_setup(config, urdf=None):
     """The Setup of a calibration YAML, with the robot taken from `urdf` instead when given.
 
-    Sections other than robot, data, parameters, measurements, solver and output are ignored.
+    Sections the setup does not use (simulation, plan, iso9283) are checked for misspelt keys only.
     """
     path = Path(config).resolve()
-    if not path.is_file():
-        raise InputError("config file not found", source=str(path))
-    raw = yaml.safe_load(path.read_text(encoding="utf-8")) or {}
-    raw = {k: v for k, v in raw.items() if k in TOP_KEYS and k != "simulation"}
-    if urdf is not None:
+    raw = read_yaml(path)
+    if urdf is not None and isinstance(raw, dict):
         robot_cfg = {k: v for k, v in (raw.get("robot") or {}).items() if k not in ("urdf", "example")}
-        robot_cfg["urdf"] = str(Path(urdf).resolve())
-        raw["robot"] = robot_cfg
-    return build_setup(Cfg(raw, "", str(path)), path.parent, raw)
+        raw = {**raw, "robot": {**robot_cfg, "urdf": str(Path(urdf).resolve())}}
+    return setup_from_config(raw, path.parent, str(path))
 
 
 def assert_reproduces_dataset(config, urdf=None, rms=None, max=None, blocks: dict | None = None,
