@@ -17,6 +17,7 @@ from collections import deque
 import numpy as np
 
 from robocal.errors import InputError
+from scipy.signal import savgol_filter
 
 SCHEMES = ("central", "backward", "savgol")
 
@@ -38,7 +39,6 @@ def differentiate(positions: np.ndarray, dt: float, scheme: str = "central", win
     if scheme == "backward":
         return _backward(q, dt)
     if scheme == "savgol":
-        from scipy.signal import savgol_filter
         if window % 2 == 0 or window <= order or window > q.shape[0]:
             raise InputError(f"savgol window must be odd, > order and <= samples; got {window}",
                              field="window")

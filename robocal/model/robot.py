@@ -18,6 +18,7 @@ from lxml import etree
 
 from robocal.errors import FrameNotFound, InputError
 from robocal.model.urdf_check import c_stderr_captured, check_urdf_elements
+from robocal.model.loops_urdf import read_loops
 
 # Robots of the example-robot-data package, by the short names users type.
 EXAMPLES: dict[str, str] = {
@@ -271,7 +272,6 @@ def load_urdf(path: str | Path, package_dirs: list[str | Path] | None = None) ->
     dirs = [str(p) for p in (package_dirs or [])] + [str(path.parent)]
     robot = Robot(model=model, urdf_path=path, urdf_text=text, package_dirs=dirs,
                   name=tree.get("name", path.stem))
-    from robocal.model.loops_urdf import read_loops  # local import: loops needs Robot
     robot.loops = read_loops(robot, tree)
     return robot
 

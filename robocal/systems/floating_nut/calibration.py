@@ -22,6 +22,7 @@ import copy
 from robocal.estimation.calibrate import CalibrationOptions, calibrate
 from robocal.model.parameters import Parameter, ParameterSet, offset_parameter, placement_parameters
 from robocal.model.robot import Robot
+from robocal.model.loops import LoopSet
 
 LEGS = 6
 XYZ = ("tx", "ty", "tz")
@@ -69,7 +70,6 @@ def transmission_parameter(robot: Robot, relation: str, component: str) -> Param
 def uncompensated_robot(robot: Robot) -> Robot:
     """The same machine read as a classic 6-UPS: its screw rows dropped, so each encoder reading is taken
     as the effective strut length (what a tool without nut-roll compensation fits). Shares the model."""
-    from robocal.model.loops import LoopSet
 
     out = copy.copy(robot)
     L = robot.loops
