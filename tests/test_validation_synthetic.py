@@ -27,7 +27,8 @@ def test_weak_and_confounded_data_converge_physically_with_the_default_prior(tmp
     scales = physical_scales(setup.problem)
     for name, s in scales.scale.items():               # every robot parameter within physical scale
         assert abs(setup.problem.params[name].value) < BEYOND * s, name
-    assert result.unidentifiable                         # structurally confounded pairs: fixed at nominal
+    # structurally confounded pairs: decided by the prior alone, and said so
+    assert result.prior_only and all(result.determinacy.classes[n] == "not determined" for n in result.prior_only)
     decided = [d for d in result.determinacy.directions if d.decided_by_prior]
     assert decided and any("wrist" in n for d in decided for n, _ in d.terms)
     assert any("the prior decided it" in s for s in result.identifiability_statements())
@@ -71,7 +72,7 @@ def test_evaluate_hand_computed_errors_inside_and_outside_the_training_range(tmp
     pts = np.array([ms.sample(v).pose("tool0").translation for v in q]) - shift
     rows = [",".join(JOINTS + ["x", "y", "z"])] + [",".join(repr(float(x)) for x in [*v, *p]) for v, p in zip(q, pts)]
     (tmp_path / "other.csv").write_text("\n".join(rows) + "\n")
-    assert main(["evaluate", str(out), str(tmp_path / "other.csv")]) == 0
+    assert main(["evaluate", str(out), str(tmp_path / "other.csv"), "--config", str(cfg)]) == 0
     ev = json.loads((out / "evaluation_other.json").read_text())
     b = ev["blocks"][0]
     # hand-computed: inside |e| = 3 and 4 mm -> RMS sqrt((9 + 16) / 2); outside 2 mm; all three sqrt(29 / 3)
@@ -111,13 +112,13 @@ def test_bad_input_names_file_and_field_and_writes_nothing(tmp_path, capsys):
     before = sorted(p.name for p in out.iterdir())
     # an evaluation CSV without a joint column
     (tmp_path / "bad.csv").write_text("shoulder_pan_joint,x,y,z\n0,0,0,0\n")
-    assert main(["evaluate", str(out), str(tmp_path / "bad.csv")]) == 2
+    assert main(["evaluate", str(out), str(tmp_path / "bad.csv"), "--config", str(cfg)]) == 2
     assert "bad.csv" in capsys.readouterr().err
     # a result folder of another model: its parameters are not in this config's model
     result = json.loads((out / "result.json").read_text())
     result["parameters"].append({"name": "arm_7_joint.offset", "value": 0.0})
     (out / "result.json").write_text(json.dumps(result))
-    assert main(["evaluate", str(out), str(tmp_path / "data.csv")]) == 2
+    assert main(["evaluate", str(out), str(tmp_path / "data.csv"), "--config", str(cfg)]) == 2
     err = capsys.readouterr().err
     assert "result.json" in err and "arm_7_joint.offset" in err
     assert sorted(p.name for p in out.iterdir()) == before

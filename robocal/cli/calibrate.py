@@ -8,7 +8,6 @@ from pathlib import Path
 
 from robocal.errors import RobocalError
 from robocal.estimation.calibrate import calibrate
-from robocal.estimation.evaluation import portable_config
 from robocal.estimation.iso9283_run import iso9283_from_config
 from robocal.io.config import load_config
 from robocal.io.output import write_results
@@ -31,7 +30,7 @@ def cmd_calibrate(args) -> int:
     before = p.params.copy()      # the scene shows the model before and after the fit
     result = calibrate(p, setup.options, progress=None if args.quiet else _progress,
                        source=", ".join(str(t.path) for t in setup.tables.values()))
-    extra = {"scene.json": scene_bytes(setup, result, before), "config.yaml": portable_config(args.config)}
+    extra = {"scene.json": scene_bytes(setup, result, before)}
     iso = _iso9283(args.config, result) if "iso9283" in (setup.raw or {}) else None
     if iso is not None:
         extra["iso9283.json"] = (json.dumps(iso, indent=2) + "\n").encode()
@@ -44,7 +43,7 @@ def cmd_calibrate(args) -> int:
             print(f"robocal: no report.html ({exc.name} is not installed: pip install 'robocal[viz]')",
                   file=sys.stderr)
     files = write_results(setup.robot, result, out, force=args.force, allow_failed=args.allow_failed, extra=extra)
-    print(result.summary())     # a refused fit's "what went wrong and how to fix it" comes first
+    print(result.summary())
     print("\nWrote " + ", ".join(str(f) for f in files.values()))
     if not result.success:
         print(f"\nrobocal: the fit is {result.status}; no calibrated URDF written "

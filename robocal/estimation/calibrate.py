@@ -59,7 +59,7 @@ def calibrate(problem: Problem, options: CalibrationOptions | None = None,
     nominal = nominal_values(params)
     scales = physical_scales(problem, opt.determined_length, opt.determined_angle)
     requested = params.free_names
-    ev0 = problem.evaluate()
+    ev0 = problem.evaluate(jacobian=False)
     m = len(ev0.r)
     if m < len(requested):
         raise IdentifiabilityError(
@@ -70,9 +70,8 @@ def calibrate(problem: Problem, options: CalibrationOptions | None = None,
     registered = register_nominal(problem, opt) if opt.register_before or opt.regularisation == "auto" else None
     default_prior = (apply_default_prior(problem, registered, scales, opt.rank_rtol)
                      if opt.regularisation == "auto" else DefaultPrior("off", False))
-    if default_prior.applied:          # prior rows added: the start evaluation again
-        ev0 = problem.evaluate()
-        m = len(ev0.r)
+    ev0 = problem.evaluate()           # after the registration: the layout of the full free set, with any prior
+    m = len(ev0.r)
     before = registered.before if registered is not None and opt.register_before else block_statistics(problem, ev0)
 
     last = {}

@@ -43,7 +43,8 @@ class Selection:
     def table(self) -> list[str]:
         unit = next((r.cv.unit for r in self.rungs if r.cv), "mm")
         lines = [f"Model ladder, {self.folds}: RMS of the error norm ({unit}) on held-out samples",
-                 f"{'':2}{'model':<34}{'params':>7}{'train RMS':>11}{'held-out RMS':>14}{'+- s.e.':>9}"]
+                 "free: parameters the rung frees (before the identifiability selection)",
+                 f"{'':2}{'model':<34}{'free':>7}{'train RMS':>11}{'held-out RMS':>14}{'+- s.e.':>9}"]
         for k, r in enumerate(self.rungs):
             mark = "*" if k == self.chosen else ("b" if k == self.best else " ")
             if r.cv is None:

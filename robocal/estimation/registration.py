@@ -4,8 +4,9 @@
 (base, measurement set-up such as an unknown marker, tool frames: physical_scale.REGISTRATION_KINDS) with
 every robot parameter at nominal. Its residuals are the honest "before" figures: they compare robot models,
 not an arbitrary choice of frames. `apply_default_prior` linearises there and, if the data leave some robot
-parameter looser than its physical scale, gives every kept robot parameter without a prior a prior of
-strength x physical scale, the strength chosen by the evidence (robocal.estimation.regularisation).
+parameter looser than its physical scale, gives every robot parameter without a prior a prior of
+strength x physical scale (also the ones the data cannot separate: they become prior-only), the strength
+chosen by the evidence (robocal.estimation.regularisation).
 The problem's parameters are left as they were found, except for the priors added.
 """
 from __future__ import annotations
@@ -136,7 +137,9 @@ def apply_default_prior(problem, registered: Registered, scales, rtol: float) ->
     if not loose:
         return DefaultPrior("auto", False, None, noise,
                             reason="the data determine every kept robot parameter within its physical scale")
-    names = [n for n in kept if n in candidates]
+    # every robot parameter gets it, also those the data cannot separate at all: fixing them at nominal
+    # leaves the kept ones to absorb their true errors only to first order, and the fit stalls (docs/validation.md)
+    names = [n for n in free if n in candidates]
     for n in names:
         params[n].prior_sigma, params[n].prior_mean = evd.strength * scales.scale[n], params[n].value
     return DefaultPrior("auto", True, evd.strength, noise, names, loose,
