@@ -34,7 +34,7 @@ def test_weak_and_confounded_data_converge_physically_with_the_default_prior(tmp
     assert any("the prior decided it" in s for s in result.identifiability_statements())
     # the same data without the prior: refused, with the way forward printed first
     off = setup_for_data(cfg)
-    off.options.regularisation = "off"
+    off.options.regularisation = "none"
     refused = calibrate(off.problem, off.options)
     assert not refused.success and refused.refusals
     text = refused.summary()
@@ -79,7 +79,7 @@ def test_evaluate_hand_computed_errors_inside_and_outside_the_training_range(tmp
     assert b["inside_training_range"]["rms_norm"] == pytest.approx(np.sqrt(12.5), abs=1e-6)
     assert b["outside_training_range"]["rms_norm"] == pytest.approx(2.0, abs=1e-6)
     assert b["all"]["rms_norm"] == pytest.approx(np.sqrt(29 / 3), abs=1e-6) and b["all"]["max_norm"] == pytest.approx(4)
-    assert [o["row"] for o in ev["outside_training_range"]] == [4]
+    assert [o["csv_line"] for o in ev["outside_training_range"]] == [4]
     assert ev["refitted"] == []
 
 

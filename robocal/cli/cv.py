@@ -1,24 +1,13 @@
 """`robocal cv CONFIG [--folds K | --loo] [--group COLUMN]`: cross-validate a calibration (docs/validation.md)."""
 from __future__ import annotations
 
-from robocal.errors import InputError
-from robocal.estimation.evaluation import kfold
-from robocal.estimation.validation import cv_table, group_folds
+from robocal.estimation.validation import cv_table, make_folds
 from robocal.io.config import load_config
 
 
 def cmd_cv(args) -> int:
     setup = load_config(args.config)
-    n = len(setup.problem.values)
-    if args.group:
-        folds, label = group_folds(setup, args.group), f"leave-one-group-out on column '{args.group}'"
-    elif args.loo:
-        folds, label = kfold(n, n), f"leave-one-out ({n} folds)"
-    else:
-        k = args.folds or min(5, n)
-        if not 2 <= k <= n:
-            raise InputError(f"need 2 <= folds <= {n} samples, got {k}", field="--folds")
-        folds, label = kfold(n, k), f"{k}-fold (fold i holds samples i, i + {k}, ...)"
+    folds, label = make_folds(setup, args.folds, args.loo, args.group)
     table = cv_table(setup.problem, folds, setup.options)
     u = table.unit
     print(f"Cross-validation of {args.config}, {label}: RMS of the error norm ({u}), each fold fitted without "
@@ -32,11 +21,16 @@ def cmd_cv(args) -> int:
     return 0
 
 
-def add_parser(subparsers) -> None:
-    c = subparsers.add_parser("cv", help="cross-validate a calibration config (K-fold, leave-one-out or grouped)")
-    c.add_argument("config", help="calibration YAML (docs/config.md)")
-    how = c.add_mutually_exclusive_group()
+def add_fold_arguments(parser) -> None:
+    """--folds K | --loo | --group COLUMN (shared by cv and select)."""
+    how = parser.add_mutually_exclusive_group()
     how.add_argument("--folds", type=int, help="K interleaved folds (default 5)")
     how.add_argument("--loo", action="store_true", help="leave one sample out")
     how.add_argument("--group", metavar="COLUMN", help="leave one group out: samples sharing this CSV column's value")
+
+
+def add_parser(subparsers) -> None:
+    c = subparsers.add_parser("cv", help="cross-validate a calibration config (K-fold, leave-one-out or grouped)")
+    c.add_argument("config", help="calibration YAML (docs/config.md)")
+    add_fold_arguments(c)
     c.set_defaults(handler=cmd_cv)

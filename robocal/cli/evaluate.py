@@ -16,7 +16,7 @@ def cmd_evaluate(args) -> int:
     if not config.is_file():
         raise InputError("no config.yaml in the result folder: pass --config CALIB.yaml (the config it was "
                          "fitted with)", source=str(config), field="--config")
-    report = evaluate_result(folder, args.data, config, args.refit)
+    report = evaluate_result(folder, Path(args.data).resolve(), config, args.refit)
     print(f"Evaluation of {folder} on {report.data}")
     print("Refitted on this session: " + (", ".join(report.refitted) or "nothing (--refit PATTERN re-registers "
                                                                       "a frame per session, e.g. 'base.*')"))
@@ -31,7 +31,7 @@ def cmd_evaluate(args) -> int:
                       f"{st['rms_norm']:>9.4g} {b['unit']:<2}{st['max_norm']:>9.4g} {b['unit']}")
     for o in report.outside:
         beyond = ", ".join(f"{j} {v:+.3g}" for j, v in o["beyond_range"].items())
-        print(f"  outside the training range: data row {o['row']} ({beyond}, SI)")
+        print(f"  outside the training range: CSV line {o['csv_line']} ({beyond}, SI)")
     name = f"evaluation_{Path(args.data).stem}.json"
     files = {p.name: p.read_bytes() for p in folder.iterdir() if p.is_file()}
     files[name] = (json.dumps(report.to_dict(), indent=2) + "\n").encode()

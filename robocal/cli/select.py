@@ -6,6 +6,7 @@ import json
 import sys
 from pathlib import Path
 
+from robocal.cli.cv import add_fold_arguments
 from robocal.errors import RobocalError
 from robocal.estimation.calibrate import calibrate
 from robocal.estimation.evaluation import portable_config, setup_for_data
@@ -38,10 +39,7 @@ def cmd_select(args) -> int:
 def add_parser(subparsers) -> None:
     s = subparsers.add_parser("select", help="choose a model by cross-validation (ladder + one-standard-error rule)")
     s.add_argument("config", help="calibration YAML; compliance / backlash / tilt it asks for extend the ladder")
-    how = s.add_mutually_exclusive_group()
-    how.add_argument("--folds", type=int, help="K interleaved folds (default 5)")
-    how.add_argument("--loo", action="store_true", help="leave one sample out")
-    how.add_argument("--group", metavar="COLUMN", help="leave one group out: samples sharing this CSV column's value")
+    add_fold_arguments(s)
     s.add_argument("-o", "--output", help="output folder (default: the config's output.dir)")
     s.add_argument("--force", action="store_true", help="replace an output folder robocal wrote")
     s.add_argument("--allow-failed", action="store_true", help="write the URDF even if the fit failed")

@@ -42,7 +42,7 @@ class CalibrationOptions:
     ftol: float = 1e-12
     xtol: float = 1e-12
     gtol: float = 1e-10
-    regularisation: str = "auto"     # auto: a physically scaled prior where the data leave a direction loose | off
+    regularisation: str = "auto"     # auto: a physically scaled prior where the data leave a direction loose | none
     determined_length: float = DETERMINED_LENGTH   # m: standard error below which a length is determined
     determined_angle: float = DETERMINED_ANGLE     # rad: the same for an angle
     register_before: bool = True     # "before" figures after registering the nominal model (else: as given)
@@ -52,8 +52,8 @@ def calibrate(problem: Problem, options: CalibrationOptions | None = None,
               progress: Callable[[Iteration], None] | None = None, source: str = "data") -> CalibrationResult:
     """Fit the free parameters of `problem` (in place) and return the result with statistics."""
     opt = options or CalibrationOptions()
-    if opt.regularisation not in ("auto", "off"):
-        raise InputError(f"regularisation must be auto or off, got '{opt.regularisation}'",
+    if opt.regularisation not in ("auto", "none"):
+        raise InputError(f"regularisation must be auto or none, got '{opt.regularisation}'",
                          field="solver.regularisation")
     params = problem.params
     nominal = nominal_values(params)
@@ -69,7 +69,7 @@ def calibrate(problem: Problem, options: CalibrationOptions | None = None,
         raise IdentifiabilityError(f"{source}: the residuals are not finite at the initial parameters")
     registered = register_nominal(problem, opt) if opt.register_before or opt.regularisation == "auto" else None
     default_prior = (apply_default_prior(problem, registered, scales, opt.rank_rtol)
-                     if opt.regularisation == "auto" else DefaultPrior("off", False))
+                     if opt.regularisation == "auto" else DefaultPrior("none", False))
     ev0 = problem.evaluate()           # after the registration: the layout of the full free set, with any prior
     m = len(ev0.r)
     before = registered.before if registered is not None and opt.register_before else block_statistics(problem, ev0)

@@ -27,6 +27,7 @@ class Direction:
     stderr: float                        # in thresholds (1 = at the threshold)
     beyond_scale: bool                   # the data know it less well than physics does
     decided_by_prior: bool = False
+    in_scales: float = 0.0               # its standard error in physical scales of the parameters it moves
 
     def describe(self) -> str:
         combo = " ".join(f"{c:+.2f} {n}" for n, c in self.terms)
@@ -91,5 +92,5 @@ def classify(names, J_data: np.ndarray, noise2: float, thresholds: np.ndarray, s
         reach = float(np.sqrt(np.sum((v ** 2) / np.where(np.isfinite(ratio), ratio, np.inf) ** 2)))
         beyond = se * reach > 1.0 if reach > 0 else False
         prior = beyond and all(names[i] in with_prior for i in order)
-        directions.append(Direction(terms, se, bool(beyond), prior))
+        directions.append(Direction(terms, se, bool(beyond), prior, se * reach))
     return Determinacy(stderr, classes, directions)

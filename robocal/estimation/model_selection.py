@@ -12,8 +12,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from robocal.errors import InputError
-from robocal.estimation.evaluation import kfold, setup_for_data
-from robocal.estimation.validation import CVTable, cv_table, group_folds
+from robocal.estimation.evaluation import setup_for_data
+from robocal.estimation.validation import CVTable, cv_table, make_folds
 
 EXTRA_KINDS = ("compliance", "backlash", "tilt")
 
@@ -85,16 +85,7 @@ def one_standard_error(rms: np.ndarray, stderr: np.ndarray) -> tuple[int, int]:
 def select_model(config, folds: int | None = None, loo: bool = False, group: str | None = None) -> Selection:
     """Cross-validate every rung of the ladder on the same folds and choose by the one-standard-error rule."""
     base = setup_for_data(config)
-    n = len(base.problem.values)
-    if group:
-        fold_list, label = group_folds(base, group), f"leave-one-group-out on column '{group}'"
-    elif loo:
-        fold_list, label = kfold(n, n), f"leave-one-out ({n} folds)"
-    else:
-        k = folds or min(5, n)
-        if not 2 <= k <= n:
-            raise InputError(f"need 2 <= folds <= {n}, got {k}", field="--folds")
-        fold_list, label = kfold(n, k), f"{k}-fold"
+    fold_list, label = make_folds(base, folds, loo, group)
     rungs = ladder((base.raw or {}).get("parameters"))
     for rung in rungs:
         try:

@@ -4,7 +4,7 @@ A fit is refused (status not converged / implausible / ill-conditioned; no URDF 
   - the solver stopped at its iteration cap or found no descent;
   - the kept block is ill-conditioned beyond solver.condition_limit;
   - a robot parameter lies beyond BEYOND physical scales from its nominal value;
-  - a direction the data leave beyond physical scale has no prior to decide it (regularisation: off).
+  - a direction the data leave free beyond BEYOND physical scales has no prior to decide it (left to chance).
 Each refusal says what went wrong and what to run or change (docs/validation.md).
 """
 from __future__ import annotations
@@ -65,12 +65,13 @@ def check_fit(result, nominal: dict[str, float], scales, regularisation: str, ma
                            "`robocal select CONFIG`; if the value is real, check the URDF and the joint zero"))
     det = result.determinacy
     if det is not None:
-        loose = [d for d in det.directions if d.beyond_scale and not d.decided_by_prior
+        # weak (1-10 scales) is reported; free to wander past what a robot can be (> BEYOND scales) is refused
+        loose = [d for d in det.directions if d.in_scales > BEYOND and not d.decided_by_prior
                  and any(t[0] in scales.scale and params[t[0]].prior_sigma is None for t in d.terms)]
         if loose:
             names = [t[0] for d in loose for t in d.terms if t[0] in scales.scale]
-            out.append(Refusal(f"{len(loose)} direction(s) the data leave beyond physical scale, with no prior "
-                               f"to decide them: {loose[0].describe()}",
+            out.append(Refusal(f"{len(loose)} direction(s) the data leave free beyond {BEYOND:g} physical scales, "
+                               f"with no prior to decide them: {loose[0].describe()}",
                                ("add priors (" if regularisation == "auto" else
                                 "set solver: {regularisation: auto}, or add priors (")
                                + prior_hint(params, list(dict.fromkeys(names)), scales) + "), or run "

@@ -32,7 +32,7 @@ class Registered:
 
 @dataclass
 class DefaultPrior:
-    mode: str                        # auto | off
+    mode: str                        # auto | none
     applied: bool
     strength: float | None = None    # prior sigma = strength x physical scale
     noise_ratio: float | None = None # measured noise / stated sigma (evidence estimate)
@@ -47,8 +47,8 @@ class DefaultPrior:
                 "loose_without_prior": self.loose, "reason": self.reason}
 
     def describe(self) -> str:
-        if self.mode == "off":
-            return "Default prior: off (solver.regularisation: off)."
+        if self.mode == "none":
+            return "Default prior: none (solver.regularisation: none)."
         if not self.applied:
             return f"Default prior: not needed ({self.reason})."
         return (f"Default prior: {len(self.names)} robot parameters, sigma = {self.strength:.3g} x physical scale "

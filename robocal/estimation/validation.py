@@ -17,7 +17,7 @@ import numpy as np
 
 from robocal.errors import InputError
 from robocal.estimation.calibrate import CalibrationOptions, calibrate
-from robocal.estimation.evaluation import (RANGE_MARGIN, BlockErrors, range_excess, setup_for_data,
+from robocal.estimation.evaluation import (RANGE_MARGIN, BlockErrors, kfold, range_excess, setup_for_data,
                                            subset_residual, term_errors)
 from robocal.estimation.problem import Problem
 from robocal.estimation.registration import fit_subset
@@ -121,11 +121,11 @@ def evaluate_result(result_dir, csv, config, refit: list[str] | None = None,
                            "inside_training_range": norm_rms(e[~outside[s]]),
                            "outside_training_range": norm_rms(e[outside[s]])})
             for k, i in enumerate(s):
-                per_sample.setdefault(int(i), {"sample": int(i), "row": setup.sample_rows[int(i)][1] + 2,
+                per_sample.setdefault(int(i), {"sample": int(i), "csv_line": setup.sample_rows[int(i)][1] + 2,
                                                "outside_training_range": bool(outside[i])})[
                     f"{name} {label} ({unit})"] = [float(v) for v in e[k]]
     joints = setup.problem.joint_names
-    far = [{"sample": int(i), "row": setup.sample_rows[int(i)][1] + 2,
+    far = [{"sample": int(i), "csv_line": setup.sample_rows[int(i)][1] + 2,
             "beyond_range": {j: float(excess[i, k]) for k, j in enumerate(joints) if abs(excess[i, k]) > RANGE_MARGIN}}
            for i in np.flatnonzero(outside)]
     return EvaluationReport(str(Path(csv).resolve()), list(dict.fromkeys(refitted)), blocks,
@@ -148,6 +148,20 @@ def group_folds(setup, column: str) -> list[np.ndarray]:
         raise InputError(f"column '{column}' holds a single group: nothing to hold out", field=column)
     labels = np.array(labels)
     return [np.flatnonzero(labels == g) for g in groups]
+
+
+def make_folds(setup, folds: int | None = None, loo: bool = False, group: str | None = None):
+    """(folds, description): `group` column -> leave-one-group-out, `loo` -> leave-one-out, else K interleaved
+    folds (default 5, fold i = samples i, i + K, ...)."""
+    n = len(setup.problem.values)
+    if group:
+        return group_folds(setup, group), f"leave-one-group-out on column '{group}'"
+    if loo:
+        return kfold(n, n), f"leave-one-out ({n} folds)"
+    k = folds or min(5, n)
+    if not 2 <= k <= n:
+        raise InputError(f"need 2 <= folds <= {n} samples, got {k}", field="--folds")
+    return kfold(n, k), f"{k}-fold"
 
 
 @dataclass

@@ -123,7 +123,7 @@ def report_html(result: dict, scene: dict | None = None, meshes: bool = True, ti
         state = "estimated" if p.get("vary") else ("not identifiable: fixed" if p.get("identifiable") is False else "fixed")
         params.append([p["name"], unit, _fmt(k * p["value"], "+.5g"),
                        _fmt(k * se, ".3g") if p.get("vary") and se is not None else "", state])
-    parts = [f"<h1>{html.escape(title)}</h1>",
+    parts = [f"<h1>{html.escape(title)}</h1>", *refusal_section(result),     # what went wrong first
              "<h2>Summary</h2>", _table(["quantity", "value"], summary, "summary"),
              "<h2>Residuals (mm, mrad)</h2>",
              "<p>RMS and maximum of the error norm (3D per point or orientation); before = the nominal robot with "
@@ -131,7 +131,6 @@ def report_html(result: dict, scene: dict | None = None, meshes: bool = True, ti
                  (result.get("registration_before") or {}).get("parameters") or ["none"])) + ").</p>",
              _table(["block", "type", "rows", "norm of", "RMS |e| before", "RMS |e| after", "max |e| before",
                      "max |e| after", "RMS per component after"], blocks, "residuals"),
-             *refusal_section(result),
              "<h2>Identifiability</h2>", "<ul class=\"identifiability\">"
              + "".join(f"<li>{html.escape(s)}</li>" for s in ident.get("statements", [])) + "</ul>",
              "<h2>Parameters (lengths in mm, angles in mrad)</h2>",
