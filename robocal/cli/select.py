@@ -12,6 +12,7 @@ from robocal.estimation.calibrate import calibrate
 from robocal.estimation.evaluation import portable_config, setup_for_data
 from robocal.estimation.model_selection import select_model
 from robocal.io.output import write_results
+from robocal.viz.scene import scene_bytes
 
 
 def cmd_select(args) -> int:
@@ -23,9 +24,18 @@ def cmd_select(args) -> int:
     out = Path(args.output).resolve() if args.output else setup.output_dir
     if out.exists() and not args.force:
         raise RobocalError(f"{out}: output folder exists; pass --force to replace it")
+    before = setup.problem.params.copy()      # the scene shows the model before and after the fit
     result = calibrate(setup.problem, setup.options, source=str(args.config))
     extra = {"selection.json": (json.dumps(selection.to_dict(), indent=2, allow_nan=True) + "\n").encode(),
-             "config.yaml": portable_config(args.config, rung.parameters)}
+             "config.yaml": portable_config(args.config, rung.parameters),
+             "scene.json": scene_bytes(setup, result, before)}
+    if (setup.raw.get("output") or {}).get("report", True):
+        try:
+            from robocal.viz.report import report_bytes   # matplotlib and meshcat: the optional [viz] extra
+            extra["report.html"] = report_bytes(result, extra["scene.json"], meshes=False)
+        except ImportError as exc:
+            print(f"robocal: no report.html ({exc.name} is not installed: pip install 'robocal[viz]')",
+                  file=sys.stderr)
     files = write_results(setup.robot, result, out, force=args.force, allow_failed=args.allow_failed, extra=extra)
     print(f"\nChosen: {rung.name}, fitted on all samples:\n")
     print(result.summary())
