@@ -26,6 +26,8 @@ def cmd_select(args) -> int:
         raise RobocalError(f"{out}: output folder exists; pass --force to replace it")
     before = setup.problem.params.copy()      # the scene shows the model before and after the fit
     result = calibrate(setup.problem, setup.options, source=str(args.config))
+    for name, value in result.registration_values.items():   # "before" = the registered nominal robot
+        before[name].value = value
     extra = {"selection.json": (json.dumps(selection.to_dict(), indent=2, allow_nan=True) + "\n").encode(),
              "config.yaml": portable_config(args.config, rung.parameters),
              "scene.json": scene_bytes(setup, result, before)}

@@ -151,6 +151,7 @@ def calibrate(problem: Problem, options: CalibrationOptions | None = None,
                                   [requested[j] for j in selection.dependent], with_prior)
     result.default_prior = default_prior
     result.registration = registered.names if registered is not None else []
+    result.registration_values = dict(registered.values) if registered is not None else {}
     result.robot_size = scales.size
     result.refusals = check_fit(result, nominal, scales, opt.regularisation, opt.max_iterations)
     return result

@@ -100,6 +100,7 @@ class CalibrationResult:
     determinacy: object | None = None      # robocal.estimation.determinacy.Determinacy
     default_prior: object | None = None    # robocal.estimation.registration.DefaultPrior
     registration: list[str] = field(default_factory=list)   # parameters fitted for the "before" figures
+    registration_values: dict[str, float] = field(default_factory=dict)   # their values in the "before" model
     robot_size: float | None = None        # m, the length the physical scales are relative to
     refusals: list = field(default_factory=list)            # robocal.estimation.plausibility.Refusal
 
@@ -171,7 +172,7 @@ class CalibrationResult:
             "refusals": [r.to_dict() for r in self.refusals],
             "default_prior": self.default_prior.to_dict() if self.default_prior is not None else None,
             "determinacy": self.determinacy.to_dict() if self.determinacy is not None else None,
-            "registration_before": {"parameters": self.registration,
+            "registration_before": {"parameters": self.registration, "values": self.registration_values,
                                     "meaning": "before = the nominal model with only these frames fitted"},
             "robot_size_m": self.robot_size,
             "parameters": self.params.to_list(),
