@@ -19,7 +19,7 @@ import numpy as np
 from robocal.errors import IdentifiabilityError, InputError
 from robocal.estimation.determinacy import classify
 from robocal.estimation.identifiability import covariance, select_base_parameters
-from robocal.estimation.physical_scale import (DETERMINED_ANGLE, DETERMINED_LENGTH, REGISTRATION_KINDS,
+from robocal.estimation.physical_scale import (DETERMINED_ANGLE, DETERMINED_LENGTH,
                                                physical_scales)
 from robocal.estimation.plausibility import check_fit, nominal_values
 from robocal.estimation.registration import DefaultPrior, apply_default_prior, register_nominal

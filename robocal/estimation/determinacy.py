@@ -53,24 +53,31 @@ class Determinacy:
 
 
 def data_only_stderr(J: np.ndarray, noise2: float, units: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(stderr in `units`, eigenvalues of the covariance in `units`, eigenvectors) from data rows J (m, n).
+    """(stderr in `units`, variance of each principal direction in `units`, directions) from data rows J (m, n).
 
-    units: a positive unit per column (its threshold, SI): a parameter of u units moves by u * units; columns
-    the data do not see get infinite stderr."""
+    units: a positive unit per column (its threshold, SI): a parameter of u units moves by u * units. Computed
+    from the SVD of the scaled J (not J^T J, which squares the condition); directions with a singular value at
+    the rounding level carry no information and get infinite variance."""
     Jt = J * units[None, :]
-    F = Jt.T @ Jt
-    w, V = np.linalg.eigh(F) if len(F) else (np.zeros(0), np.zeros((0, 0)))
-    tiny = w <= NULL_TOL * (w.max() if len(w) and w.max() > 0 else 1.0)
-    inv = np.where(tiny, np.inf, noise2 / np.where(tiny, 1.0, w))
+    if not Jt.size:
+        return np.zeros(J.shape[1]), np.zeros(0), np.zeros((J.shape[1], 0))
+    _, sv, Vt = np.linalg.svd(Jt, full_matrices=False)
+    V = Vt.T
+    tiny = sv <= NULL_TOL * max(sv.max(), 1e-300)
+    inv = np.where(tiny, np.inf, noise2 / np.where(tiny, 1.0, sv) ** 2)
     with np.errstate(invalid="ignore"):
         var = np.where((V ** 2 > 1e-12) & np.isinf(inv)[None, :], np.inf, V ** 2 * np.where(tiny, 0.0, inv)).sum(1)
+    if V.shape[1] < J.shape[1]:     # fewer rows than columns: the rest of the space is unseen
+        var[:] = np.where(np.linalg.norm(V, axis=1) < 1 - 1e-9, np.inf, var)
     return np.sqrt(var), inv, V
 
 
 def classify(names, J_data: np.ndarray, noise2: float, thresholds: np.ndarray, scales: np.ndarray,
              dependent: list[str], with_prior: set[str]) -> Determinacy:
     """Classes of the free columns `names` of J_data, plus the structurally `dependent` ones (not determined)."""
-    thresholds = np.where(np.isfinite(thresholds), thresholds, 1.0)
+    # a parameter without a physical threshold (a screw lead, a ratio) is measured in what one sigma of data sees
+    colnorm = np.linalg.norm(J_data, axis=0)
+    thresholds = np.where(np.isfinite(thresholds), thresholds, 1.0 / np.where(colnorm > 0, colnorm, 1.0))
     se_t, cov_eig, V = data_only_stderr(J_data, noise2, thresholds)
     stderr, classes = {}, {}
     for n, s, t, sc in zip(names, se_t, thresholds, scales):

@@ -9,7 +9,8 @@ milliradians; the scales below say so, per parameter kind, for any robot (docs/v
 
 The robot size is the largest distance between the origins of the read joints (and the root) in the
 nominal zero configuration of the URDF. The frames the config lets float to register the robot with the
-measurement (base, measurement set-up, tool frames) have no physical scale: they may be anywhere.
+measurement (base, measurement set-up, the measured tool frames) have no physical scale: they may be
+anywhere; a calibrated frame that no measurement looks at (a loop's attachment) is robot geometry.
 Transmission parameters (screw lead, ratio) have none either; they are left to the data.
 """
 from __future__ import annotations
@@ -26,10 +27,20 @@ ANGLE_SCALE = 0.01          # 10 mrad: joint zeros and axis directions within ab
 BEYOND = 10.0               # a fitted value this many scales from nominal is not a robot any more
 MIN_SIZE = 0.05             # m: floor of the robot size (a single joint has no spread of origins)
 MIN_LOAD = 1e-3             # N m: below this a joint carries no load worth a compliance scale
-REGISTRATION_KINDS = ("base", "auxiliary", "frame_placement")
-ROBOT_KINDS = ("joint_placement", "joint_offset", "joint_compliance", "joint_backlash", "joint_tilt")
+REGISTRATION_KINDS = ("base", "auxiliary")        # plus the placement of a measured (tool) frame
+ROBOT_KINDS = ("joint_placement", "joint_offset", "joint_compliance", "joint_backlash", "joint_tilt",
+               "frame_placement")                 # a frame on the robot that no measurement looks at
 DETERMINED_LENGTH = 1e-4    # m: a parameter known to 0.1 mm is determined ...
 DETERMINED_ANGLE = 1e-4     # rad: ... and one known to 0.1 mrad
+
+
+def measured_frames(problem) -> set[str]:
+    return {f for r in problem.residuals for f in [getattr(r, "frame", None)] if isinstance(f, str)}
+
+
+def is_registration(p: Parameter, measured: set[str]) -> bool:
+    """Base, measurement set-up, or the placement of a frame a measurement looks at (the tool)."""
+    return p.kind in REGISTRATION_KINDS or (p.kind == "frame_placement" and p.target in measured)
 
 
 def robot_size(robot, joint_names) -> float:
@@ -90,9 +101,12 @@ def physical_scales(problem, det_length: float = DETERMINED_LENGTH, det_angle: f
     needs_load = any(p.kind in ("joint_compliance", "joint_tilt") for p in params)
     loads = joint_loads(robot, joints, problem.values) if needs_load else {}
     scale, det = {}, {}
+    measured = measured_frames(problem)
     for p in params:
-        if p.kind in REGISTRATION_KINDS and p.unit in ("m", "rad"):
-            det[p.name] = det_length if p.unit == "m" else det_angle      # determinable, never out of scale
+        if is_registration(p, measured):
+            if p.unit in ("m", "rad"):
+                det[p.name] = det_length if p.unit == "m" else det_angle      # determinable, never out of scale
+            continue
         if p.kind not in ROBOT_KINDS:
             continue
         if p.kind in ("joint_compliance", "joint_tilt"):

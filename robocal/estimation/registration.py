@@ -1,7 +1,7 @@
 """The nominal model registered to the data, and the default prior chosen there.
 
 `register_nominal` fits only the frames the config lets float to place the robot in the measurement
-(base, measurement set-up such as an unknown marker, tool frames: physical_scale.REGISTRATION_KINDS) with
+(base, measurement set-up such as an unknown marker, measured tool frames: physical_scale.is_registration) with
 every robot parameter at nominal. Its residuals are the honest "before" figures: they compare robot models,
 not an arbitrary choice of frames. `apply_default_prior` linearises there and, if the data leave some robot
 parameter looser than its physical scale, gives every robot parameter without a prior a prior of
@@ -11,12 +11,13 @@ The problem's parameters are left as they were found, except for the priors adde
 """
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from robocal.estimation.identifiability import select_base_parameters
-from robocal.estimation.physical_scale import REGISTRATION_KINDS
+from robocal.estimation.physical_scale import is_registration, measured_frames
 from robocal.estimation.regularisation import choose_strength
 from robocal.estimation.result import block_statistics
 from robocal.estimation.solve import levenberg_marquardt
@@ -96,8 +97,10 @@ def register_nominal(problem, options) -> Registered:
     """Fit the registration parameters alone (robot at nominal); the problem's parameters are restored."""
     params = problem.params
     free = params.free_names
-    reg = [n for n in free if params[n].kind in REGISTRATION_KINDS]
-    start = {n: params[n].value for n in free}
+    measured = measured_frames(problem)
+    reg = [n for n in free if is_registration(params[n], measured)]
+    start = params.values()                     # every value, tied followers included
+    warm = copy.deepcopy(problem.warm_starts)   # closed chains assemble from the last solution: keep the fit's
     try:
         message = fit_subset(problem, reg, options).message if reg else "nothing to register"
         for n in free:
@@ -107,7 +110,8 @@ def register_nominal(problem, options) -> Registered:
     finally:
         for n in free:
             params[n].vary = True
-            params[n].value = start[n]
+        params.set_values(start)
+        problem.warm_starts = warm
     return Registered(reg, values, before, message)
 
 
@@ -118,21 +122,27 @@ def apply_default_prior(problem, registered: Registered, scales, rtol: float) ->
     candidates = {n for n in free if n in scales.scale and params[n].prior_sigma is None}
     if not candidates:
         return DefaultPrior("auto", False, reason="no robot parameter without a prior")
-    start = {n: params[n].value for n in registered.values}
+    start = params.values()
+    warm = copy.deepcopy(problem.warm_starts)
     try:
-        for n, v in registered.values.items():
-            params[n].value = v
+        x = params.free_values()
+        for k, n in enumerate(free):
+            x[k] = registered.values.get(n, x[k])
+        params.set_free_values(x)               # followers of the registration frames move with them
         ev = problem.evaluate()
     finally:
-        for n, v in start.items():
-            params[n].value = v
+        params.set_values(start)
+        problem.warm_starts = warm
     rows = data_rows(problem, len(ev.r))
     J, r = ev.J[rows], ev.r[rows]
     sel = select_base_parameters(J, free, rtol)
     kept = [free[j] for j in sel.independent]
     sc = np.array([scales.scale[n] if n in candidates else np.inf for n in kept])
     evd = choose_strength(J[:, sel.independent], r, sc)
-    loose = [n for n, se in zip(kept, evd.stderr) if n in candidates and se > 1.0]
+    # looseness is a property of the design: judged at the stated sigmas, not at the measured noise, which
+    # a model far from the data (a poor nominal, a wrong model) inflates
+    at_stated = evd.stderr / np.sqrt(evd.noise2) if evd.noise2 > 0 else evd.stderr
+    loose = [n for n, se in zip(kept, at_stated) if n in candidates and se > 1.0]
     noise = float(np.sqrt(evd.noise2))
     if not loose:
         return DefaultPrior("auto", False, None, noise,
