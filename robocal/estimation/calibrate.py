@@ -1,9 +1,12 @@
 """Calibration: identifiability at the start point, the solve, and the statistics of the result.
 
-Flow: evaluate the Jacobian at the initial parameters on the actual samples; keep a deterministic set
-of base parameters (the rest are fixed at their initial values and reported with what they are
+Flow: register the nominal model (fit only the frames the config lets float: base, measurement set-up,
+tool) for the "before" figures and as the point where the default prior's strength is chosen
+(robocal.estimation.regularisation); evaluate the Jacobian at the initial parameters on the actual
+samples; keep a deterministic set of base parameters (the rest are fixed at their initial values and reported with what they are
 confounded with); solve; compute the covariance sigma^2 (J^T J)^-1 with sigma^2 = SSR / (m - n)
-(or 1 when the stated sigmas are trusted: scale_covariance=False).
+(or 1 when the stated sigmas are trusted: scale_covariance=False); classify what the data determine
+(robocal.estimation.determinacy) and refuse an implausible fit (robocal.estimation.plausibility).
 """
 from __future__ import annotations
 
@@ -13,8 +16,13 @@ from typing import Callable
 
 import numpy as np
 
-from robocal.errors import IdentifiabilityError
+from robocal.errors import IdentifiabilityError, InputError
+from robocal.estimation.determinacy import classify
 from robocal.estimation.identifiability import covariance, select_base_parameters
+from robocal.estimation.physical_scale import (DETERMINED_ANGLE, DETERMINED_LENGTH,
+                                               physical_scales)
+from robocal.estimation.plausibility import check_fit, nominal_values
+from robocal.estimation.registration import DefaultPrior, apply_default_prior, register_nominal
 from robocal.estimation.problem import Evaluation, Problem
 from robocal.estimation.result import BlockStats, CalibrationResult, block_statistics
 from robocal.estimation.solve import Iteration, levenberg_marquardt
@@ -34,15 +42,24 @@ class CalibrationOptions:
     ftol: float = 1e-12
     xtol: float = 1e-12
     gtol: float = 1e-10
+    regularisation: str = "auto"     # auto: a physically scaled prior where the data leave a direction loose | none
+    determined_length: float = DETERMINED_LENGTH   # m: standard error below which a length is determined
+    determined_angle: float = DETERMINED_ANGLE     # rad: the same for an angle
+    register_before: bool = True     # "before" figures after registering the nominal model (else: as given)
 
 
 def calibrate(problem: Problem, options: CalibrationOptions | None = None,
               progress: Callable[[Iteration], None] | None = None, source: str = "data") -> CalibrationResult:
     """Fit the free parameters of `problem` (in place) and return the result with statistics."""
     opt = options or CalibrationOptions()
+    if opt.regularisation not in ("auto", "none"):
+        raise InputError(f"regularisation must be auto or none, got '{opt.regularisation}'",
+                         field="solver.regularisation")
     params = problem.params
+    nominal = nominal_values(params)
+    scales = physical_scales(problem, opt.determined_length, opt.determined_angle)
     requested = params.free_names
-    ev0 = problem.evaluate()
+    ev0 = problem.evaluate(jacobian=False)
     m = len(ev0.r)
     if m < len(requested):
         raise IdentifiabilityError(
@@ -50,7 +67,12 @@ def calibrate(problem: Problem, options: CalibrationOptions | None = None,
             f"fix parameters")
     if not np.all(np.isfinite(ev0.r)):
         raise IdentifiabilityError(f"{source}: the residuals are not finite at the initial parameters")
-    before = block_statistics(problem, ev0)
+    registered = register_nominal(problem, opt) if opt.register_before or opt.regularisation == "auto" else None
+    default_prior = (apply_default_prior(problem, registered, scales, opt.rank_rtol)
+                     if opt.regularisation == "auto" else DefaultPrior("none", False))
+    ev0 = problem.evaluate()           # after the registration: the layout of the full free set, with any prior
+    m = len(ev0.r)
+    before = registered.before if registered is not None and opt.register_before else block_statistics(problem, ev0)
 
     last = {}
 
@@ -114,10 +136,25 @@ def calibrate(problem: Problem, options: CalibrationOptions | None = None,
     for name, s in zip(params.free_names, np.sqrt(np.abs(np.diag(cov)))):
         params[name].stderr = float(s)
     ill = final_sel.condition > opt.condition_limit or final_sel.rank < n
-    return CalibrationResult(
+    result = CalibrationResult(
         params=params, requested=requested, selection=selection, covariance=cov, before=before, after=after,
         solve=sol, dof=dof, sigma2=sigma2, condition=final_sel.condition, ill_conditioned=ill,
         condition_limit=opt.condition_limit, n_rows=m, prior_only=prior_only)
+    free = params.free_names
+    data_rows_now = np.ones(len(ev.r), bool)
+    for b in problem.blocks:
+        if b.type_name == "prior":
+            data_rows_now[b.rows] = False
+    noise2 = sigma2 if np.isfinite(sigma2) else 1.0
+    with_prior = {p.name for p in params if p.prior_sigma is not None}
+    result.determinacy = classify(free, Jw[data_rows_now], noise2, scales.threshold(free), scales.of(free),
+                                  [requested[j] for j in selection.dependent], with_prior)
+    result.default_prior = default_prior
+    result.registration = registered.names if registered is not None else []
+    result.registration_values = dict(registered.values) if registered is not None else {}
+    result.robot_size = scales.size
+    result.refusals = check_fit(result, nominal, scales, opt.regularisation, opt.max_iterations)
+    return result
 
 
 def _apply_selection(params, requested, J, rtol, selection=None):

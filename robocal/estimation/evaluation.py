@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+import yaml
 
 from robocal.estimation.calibrate import CalibrationOptions, calibrate
 from robocal.io.config import Setup, read_yaml, setup_from_config
@@ -223,6 +224,28 @@ def setup_for_data(config: str | Path, csv: str | Path | None = None, parameters
     return setup_from_config(raw, path.parent, str(path), table=table)
 
 
+def portable_config(config: str | Path, parameters: dict | None = None) -> bytes:
+    """The config's YAML with its file paths made absolute (robot.urdf, package_dirs, every csv) and
+    `parameters` merged in: stored in an output folder, it rebuilds the same model from there
+    (`robocal evaluate`)."""
+    path = Path(config).resolve()
+    raw = copy.deepcopy(yaml.safe_load(path.read_text(encoding="utf-8")))
+    here = path.parent
+    robot = raw.get("robot") or {}
+    if "urdf" in robot:
+        robot["urdf"] = str((here / robot["urdf"]).resolve())
+    if robot.get("package_dirs"):
+        robot["package_dirs"] = [str((here / d).resolve()) for d in robot["package_dirs"]]
+    if (raw.get("data") or {}).get("csv"):
+        raw["data"]["csv"] = str((here / raw["data"]["csv"]).resolve())
+    for block in raw.get("measurements") or []:
+        if isinstance(block, dict) and block.get("csv"):
+            block["csv"] = str((here / block["csv"]).resolve())
+    if parameters:
+        raw["parameters"] = {**(raw.get("parameters") or {}), **parameters}
+    return yaml.safe_dump(raw, sort_keys=False).encode()
+
+
 RANGE_MARGIN = 0.05     # rad or m: how far past a reference range a reading may lie and still count as inside
 
 
@@ -246,4 +269,4 @@ def posture_groups(reference: np.ndarray, values: np.ndarray, tol: float = 0.01,
 
 
 __all__ = ["PointStats", "point_stats", "BlockErrors", "term_errors", "subset_residual", "kfold", "edge_folds",
-           "CrossValidation", "cross_validate", "setup_for_data", "RANGE_MARGIN", "range_excess", "posture_groups"]
+           "CrossValidation", "cross_validate", "setup_for_data", "portable_config", "RANGE_MARGIN", "range_excess", "posture_groups"]

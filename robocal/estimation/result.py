@@ -16,19 +16,47 @@ from robocal.estimation.solve import SolveResult
 UNIT_SCALE = {"length": (1e3, "mm"), "angle": (1e3, "mrad"), "prior": (1.0, "sigma")}
 
 
+NORM_LABEL = {"length": "3D position error", "angle": "3D orientation error"}
+
+
 @dataclass
 class BlockStats:
-    """RMS and maximum of one measurement block's rows, per unit kind, in report units (mm, mrad)."""
+    """One measurement block's errors in report units (mm, mrad).
+
+    norm_rms / norm_max: RMS and maximum of the error norm per unit kind: the 3D norm of each point
+    (each triple of length rows of a term) or orientation (each triple of angle rows), else |row|;
+    norm_label says which. rms / max: per component (per row), kept for comparison, labelled so."""
 
     name: str
     type_name: str
     rows: int
     rms: dict[str, float]
     max: dict[str, float]
+    norm_rms: dict[str, float] = field(default_factory=dict)
+    norm_max: dict[str, float] = field(default_factory=dict)
+    norm_label: dict[str, str] = field(default_factory=dict)
 
     def to_dict(self) -> dict:
         return {"name": self.name, "type": self.type_name, "rows": self.rows,
-                "rms": self.rms, "max": self.max}
+                "rms_norm": self.norm_rms, "max_norm": self.norm_max, "norm_of": self.norm_label,
+                "rms_per_component": self.rms, "max_per_component": self.max}
+
+    def headline(self, which: str = "rms") -> str:
+        """'1.43 mm (max 3.2)' per unit kind, for the norm figures."""
+        return ", ".join(f"{v:.4g} {u} (max {self.norm_max[u]:.4g})" for u, v in self.norm_rms.items())
+
+
+def term_norms(raw: np.ndarray, units: np.ndarray, group: np.ndarray, kind: str) -> tuple[np.ndarray, bool]:
+    """Error norm of each point (triple of `kind` rows of one term) or |row|; True if triples were found."""
+    norms, triples = [], True
+    for g in dict.fromkeys(group.tolist()):
+        v = raw[(group == g) & (units == kind)]
+        if len(v) % 3 == 0 and len(v):
+            norms.append(np.linalg.norm(v.reshape(-1, 3), axis=1))
+        else:
+            triples = False
+            norms.append(np.abs(v))
+    return (np.concatenate(norms) if norms else np.zeros(0)), triples
 
 
 def block_statistics(problem, ev) -> list[BlockStats]:
@@ -36,13 +64,20 @@ def block_statistics(problem, ev) -> list[BlockStats]:
     for b in problem.blocks:
         raw = ev.raw[b.rows]
         units = np.array(b.units)
-        rms, mx = {}, {}
+        group = ev.group[b.rows]
+        rms, mx, nrms, nmax, nlabel = {}, {}, {}, {}, {}
         for kind in dict.fromkeys(b.units):
             scale, label = UNIT_SCALE[kind]
             v = raw[units == kind] * scale
             rms[label] = float(np.sqrt(np.mean(v ** 2))) if len(v) else 0.0
             mx[label] = float(np.max(np.abs(v))) if len(v) else 0.0
-        out.append(BlockStats(b.name, b.type_name, len(raw), rms, mx))
+            norms, triples = term_norms(raw, units, group, kind) if kind != "prior" else (np.abs(raw), False)
+            norms = norms * scale
+            nrms[label] = float(np.sqrt(np.mean(norms ** 2))) if len(norms) else 0.0
+            nmax[label] = float(np.max(norms)) if len(norms) else 0.0
+            nlabel[label] = NORM_LABEL[kind] if triples else ("prior residual" if kind == "prior" else
+                                                              f"|{kind} error| per row")
+        out.append(BlockStats(b.name, b.type_name, len(raw), rms, mx, nrms, nmax, nlabel))
     return out
 
 
@@ -62,16 +97,31 @@ class CalibrationResult:
     condition_limit: float
     n_rows: int
     prior_only: list[str] = field(default_factory=list)   # kept only because a prior determines them
+    determinacy: object | None = None      # robocal.estimation.determinacy.Determinacy
+    default_prior: object | None = None    # robocal.estimation.registration.DefaultPrior
+    registration: list[str] = field(default_factory=list)   # parameters fitted for the "before" figures
+    registration_values: dict[str, float] = field(default_factory=dict)   # their values in the "before" model
+    robot_size: float | None = None        # m, the length the physical scales are relative to
+    refusals: list = field(default_factory=list)            # robocal.estimation.plausibility.Refusal
 
     @property
     def success(self) -> bool:
-        return self.solve.success and not self.ill_conditioned
+        return self.solve.success and not self.ill_conditioned and not self.refusals
 
     @property
     def status(self) -> str:
         if not self.solve.success:
             return "not converged"
-        return "ill-conditioned" if self.ill_conditioned else "converged"
+        if self.ill_conditioned:
+            return "ill-conditioned"
+        return "implausible" if self.refusals else "converged"
+
+    def refusal_lines(self) -> list[str]:
+        """What went wrong and how to fix it, one pair per refusal (empty for an accepted fit)."""
+        lines = []
+        for k, r in enumerate(self.refusals, 1):
+            lines += [f"Refused ({k}): {r.problem}.", f"  Fix: {r.fix}."]
+        return lines
 
     @property
     def unidentifiable(self) -> list[str]:
@@ -87,6 +137,15 @@ class CalibrationResult:
         lines += [s + "; fixed at its initial value." for s in self.selection.describe()]
         if self.prior_only:
             lines.append("Determined by their priors only, not by the data: " + ", ".join(self.prior_only) + ".")
+        if self.default_prior is not None:
+            lines.append(self.default_prior.describe())
+        if self.determinacy is not None:
+            det = self.determinacy
+            counts = {c: len(det.names_in(c)) for c in ("determined", "weakly determined", "not determined")}
+            lines.append("At the measured noise, against 0.1 mm / 0.1 mrad (solver.determined_length / "
+                         "determined_angle) and the physical scales: " + ", ".join(f"{v} {k}" for k, v in counts.items())
+                         + ".")
+            lines += ["Weak direction: " + d.describe() + "." for d in det.directions]
         if self.ill_conditioned:
             lines.append(f"The fit is ill-conditioned: condition number {self.condition:.3g} exceeds "
                          f"{self.condition_limit:.3g}; estimates along the weakest directions are unreliable.")
@@ -110,11 +169,18 @@ class CalibrationResult:
                 "statements": self.identifiability_statements(),
                 "rank_rtol": self.selection.rtol,
             },
+            "refusals": [r.to_dict() for r in self.refusals],
+            "default_prior": self.default_prior.to_dict() if self.default_prior is not None else None,
+            "determinacy": self.determinacy.to_dict() if self.determinacy is not None else None,
+            "registration_before": {"parameters": self.registration, "values": self.registration_values,
+                                    "meaning": "before = the nominal model with only these frames fitted"},
+            "robot_size_m": self.robot_size,
             "parameters": self.params.to_list(),
             "residuals_before": [b.to_dict() for b in self.before],
             "residuals_after": [b.to_dict() for b in self.after],
             "convergence": [vars(h) for h in self.solve.history],
-            "units": "SI (m, rad) for parameters; mm and mrad for residual statistics",
+            "units": "SI (m, rad) for parameters; mm and mrad for residual statistics; rms_norm = RMS of the "
+                     "3D error norm of each point / orientation",
         }
 
     def to_json(self) -> str:
@@ -122,13 +188,20 @@ class CalibrationResult:
         return json.dumps(_finite(self.to_dict()), indent=2, default=_json_default, allow_nan=False)
 
     def summary(self) -> str:
-        lines = [f"Calibration {self.status}: {self.solve.message} after {self.solve.nit} iterations",
-                 f"{self.n_rows} residual rows, {len(self.params.free_names)} estimated parameters, "
-                 f"condition number {self.condition:.3g}, residual/sigma {np.sqrt(self.sigma2):.3f}", "",
-                 f"{'block':<20}{'type':<14}{'rows':>6}   {'RMS before':>22}   {'RMS after':>22}"]
+        lines = self.refusal_lines() + ([""] if self.refusals else [])
+        lines += [f"Calibration {self.status}: {self.solve.message} after {self.solve.nit} iterations",
+                  f"{self.n_rows} residual rows, {len(self.params.free_names)} estimated parameters, "
+                  f"condition number {self.condition:.3g}, residual/sigma {np.sqrt(self.sigma2):.3f}", "",
+                  "Errors: RMS of the error norm (3D per point / orientation; |e| per row otherwise), max in "
+                  "brackets. Before = the nominal robot with only the registration frames fitted"
+                  + (f" ({', '.join(sorted({n.split('.')[0] for n in self.registration}))})" if self.registration
+                     else " (none float: the model as given)") + ".",
+                  f"{'block':<20}{'type':<14}{'rows':>6}   {'RMS before: |e| (max)':>30}   "
+                  f"{'RMS after: |e| (max)':>30}   {'after, per component':>22}"]
         for b0, b1 in zip(self.before, self.after):
             fmt = lambda d: ", ".join(f"{v:.4g} {k}" for k, v in d.items())
-            lines.append(f"{b0.name:<20}{b0.type_name:<14}{b0.rows:>6}   {fmt(b0.rms):>22}   {fmt(b1.rms):>22}")
+            lines.append(f"{b0.name:<20}{b0.type_name:<14}{b0.rows:>6}   {b0.headline():>30}   "
+                         f"{b1.headline():>30}   {fmt(b1.rms):>22}")
         lines += ["", "Estimated parameters (SI units):"]
         for name in self.params.free_names:
             p = self.params[name]

@@ -18,6 +18,7 @@ import numpy as np
 
 from robocal.viz import plots
 from robocal.errors import InputError
+from robocal.viz.report_validation import evaluation_section, refusal_section
 from robocal.viz.scene import read_scene
 
 log = logging.getLogger(__name__)
@@ -111,8 +112,10 @@ def report_html(result: dict, scene: dict | None = None, meshes: bool = True, ti
         summary.insert(0, ["robot", f"{scene['robot']['name']} ({len(scene['values'])} samples)"])
     blocks = []
     for b0, b1 in zip(result.get("residuals_before", []), result.get("residuals_after", [])):
-        fmt = lambda d: ", ".join(f"{v:.4g} {k}" for k, v in d.items())
-        blocks.append([b0["name"], b0["type"], b0["rows"], fmt(b0["rms"]), fmt(b1["rms"]), fmt(b0["max"]), fmt(b1["max"])])
+        fmt = lambda d: ", ".join(f"{v:.4g} {k}" for k, v in (d or {}).items())
+        norm_of = ", ".join(f"{k}: {v}" for k, v in (b1.get("norm_of") or {}).items())
+        blocks.append([b0["name"], b0["type"], b0["rows"], norm_of, fmt(b0.get("rms_norm")), fmt(b1.get("rms_norm")),
+                       fmt(b0.get("max_norm")), fmt(b1.get("max_norm")), fmt(b1.get("rms_per_component"))])
     params = []
     for p in result.get("parameters", []):
         k, unit = SHOWN.get(p.get("unit", ""), (1.0, p.get("unit", "")))
@@ -120,16 +123,22 @@ def report_html(result: dict, scene: dict | None = None, meshes: bool = True, ti
         state = "estimated" if p.get("vary") else ("not identifiable: fixed" if p.get("identifiable") is False else "fixed")
         params.append([p["name"], unit, _fmt(k * p["value"], "+.5g"),
                        _fmt(k * se, ".3g") if p.get("vary") and se is not None else "", state])
-    parts = [f"<h1>{html.escape(title)}</h1>",
+    parts = [f"<h1>{html.escape(title)}</h1>", *refusal_section(result),     # what went wrong first
              "<h2>Summary</h2>", _table(["quantity", "value"], summary, "summary"),
              "<h2>Residuals (mm, mrad)</h2>",
-             _table(["block", "type", "rows", "RMS before", "RMS after", "max before", "max after"], blocks, "residuals"),
+             "<p>RMS and maximum of the error norm (3D per point or orientation); before = the nominal robot with "
+             "only the registration frames fitted (" + html.escape(", ".join(
+                 (result.get("registration_before") or {}).get("parameters") or ["none"])) + ").</p>",
+             _table(["block", "type", "rows", "norm of", "RMS |e| before", "RMS |e| after", "max |e| before",
+                     "max |e| after", "RMS per component after"], blocks, "residuals"),
              "<h2>Identifiability</h2>", "<ul class=\"identifiability\">"
              + "".join(f"<li>{html.escape(s)}</li>" for s in ident.get("statements", [])) + "</ul>",
              "<h2>Parameters (lengths in mm, angles in mrad)</h2>",
              _table(["parameter", "unit", "value", "standard error", "status"], params, "parameters")]
     if iso9283:
         parts += iso9283_section(iso9283)
+    for evaluation in result.get("evaluations") or []:      # robocal evaluate's files in the folder
+        parts += evaluation_section(evaluation)
     figures = report_plots(result, scene)
     if figures:
         parts.append("<h2>Plots</h2>")
@@ -174,11 +183,8 @@ def read_result(folder: str | Path) -> dict:
         raise InputError(f"not valid JSON: {exc.msg}", source=str(path), row=exc.lineno) from exc
 
 
-def write_report(folder: str | Path, out: str | Path | None = None, meshes: bool = True) -> Path:
-    """Write the report of an output folder (default: <folder>/report.html); returns its path.
-
-    Without scene.json the report still has the tables, the parameter plot and the statements.
-    """
+def report_with_evaluations(folder: str | Path, new: list[dict] | None = None, meshes: bool = True) -> bytes:
+    """report.html content of an output folder, with its evaluation_*.json files and `new` evaluations."""
     folder = Path(folder)
     result = read_result(folder)
     scene = read_scene(folder) if (folder / "scene.json").is_file() else None
@@ -186,6 +192,18 @@ def write_report(folder: str | Path, out: str | Path | None = None, meshes: bool
         log.warning("%s has no scene.json: the report has no 3D scene and no per-sample plots", folder)
     iso_path = folder / "iso9283.json"
     iso = json.loads(iso_path.read_text(encoding="utf-8")) if iso_path.is_file() else None
+    found = {p.name: json.loads(p.read_text(encoding="utf-8")) for p in sorted(folder.glob("evaluation_*.json"))}
+    evaluations = [e for e in found.values() if all(e.get("data") != n.get("data") for n in new or [])]
+    result["evaluations"] = evaluations + list(new or [])
+    return report_bytes(result, scene, meshes=meshes, iso9283=iso)
+
+
+def write_report(folder: str | Path, out: str | Path | None = None, meshes: bool = True) -> Path:
+    """Write the report of an output folder (default: <folder>/report.html); returns its path.
+
+    Without scene.json the report still has the tables, the parameter plot and the statements.
+    """
+    folder = Path(folder)
     path = Path(out) if out else folder / "report.html"
-    path.write_bytes(report_bytes(result, scene, meshes=meshes, iso9283=iso))
+    path.write_bytes(report_with_evaluations(folder, meshes=meshes))
     return path

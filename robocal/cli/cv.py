@@ -1,0 +1,36 @@
+"""`robocal cv CONFIG [--folds K | --loo] [--group COLUMN]`: cross-validate a calibration (docs/validation.md)."""
+from __future__ import annotations
+
+from robocal.estimation.validation import cv_table, make_folds
+from robocal.io.config import load_config
+
+
+def cmd_cv(args) -> int:
+    setup = load_config(args.config)
+    folds, label = make_folds(setup, args.folds, args.loo, args.group)
+    table = cv_table(setup.problem, folds, setup.options)
+    u = table.unit
+    print(f"Cross-validation of {args.config}, {label}: RMS of the error norm ({u}), each fold fitted without "
+          "its samples")
+    print(f"  {'fold':>4}{'held out':>10}{'train RMS':>12}{'held-out RMS':>14}  status")
+    for k, f in enumerate(table.folds, 1):
+        va = f"{f['validation_rms_norm']:.4g}" if f["validation_rms_norm"] is not None else "n/a"
+        print(f"  {k:>4}{len(f['held_out_samples']):>10}{f['train_rms_norm']:>12.4g}{va:>14}  {f['status']}")
+    print(f"Overall: train RMS {table.train_rms:.4g} {u}, held-out RMS {table.rms:.4g} {u} "
+          f"+- {table.stderr:.2g} {u} (standard error across folds)")
+    return 0
+
+
+def add_fold_arguments(parser) -> None:
+    """--folds K | --loo | --group COLUMN (shared by cv and select)."""
+    how = parser.add_mutually_exclusive_group()
+    how.add_argument("--folds", type=int, help="K interleaved folds (default 5)")
+    how.add_argument("--loo", action="store_true", help="leave one sample out")
+    how.add_argument("--group", metavar="COLUMN", help="leave one group out: samples sharing this CSV column's value")
+
+
+def add_parser(subparsers) -> None:
+    c = subparsers.add_parser("cv", help="cross-validate a calibration config (K-fold, leave-one-out or grouped)")
+    c.add_argument("config", help="calibration YAML (docs/config.md)")
+    add_fold_arguments(c)
+    c.set_defaults(handler=cmd_cv)

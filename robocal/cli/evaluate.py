@@ -1,0 +1,56 @@
+"""`robocal evaluate RESULT_DIR DATA.csv`: score a calibrated model on another session (docs/validation.md)."""
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+from robocal.errors import InputError
+from robocal.estimation.validation import evaluate_result
+from robocal.io.output import write_folder
+
+
+def cmd_evaluate(args) -> int:
+    folder = Path(args.result_dir).resolve()
+    config = Path(args.config) if args.config else folder / "config.yaml"
+    if not config.is_file():
+        raise InputError("no config.yaml in the result folder: pass --config CALIB.yaml (the config it was "
+                         "fitted with)", source=str(config), field="--config")
+    report = evaluate_result(folder, Path(args.data).resolve(), config, args.refit)
+    print(f"Evaluation of {folder} on {report.data}")
+    print("Refitted on this session: " + (", ".join(report.refitted) or "nothing (--refit PATTERN re-registers "
+                                                                      "a frame per session, e.g. 'base.*')"))
+    print("RMS and max of the error norm (3D per point / orientation), samples inside / outside the training "
+          "joint ranges:")
+    print(f"  {'block':<20}{'error':<22}{'samples':<10}{'n':>5}{'RMS |e|':>12}{'max |e|':>12}")
+    for b in report.blocks:
+        for part in ("all", "inside_training_range", "outside_training_range"):
+            st = b[part]
+            if st["n"]:
+                print(f"  {b['name']:<20}{b['norm_of']:<22}{part.split('_')[0]:<10}{st['n']:>5}"
+                      f"{st['rms_norm']:>9.4g} {b['unit']:<2}{st['max_norm']:>9.4g} {b['unit']}")
+    for o in report.outside:
+        beyond = ", ".join(f"{j} {v:+.3g}" for j, v in o["beyond_range"].items())
+        print(f"  outside the training range: CSV line {o['csv_line']} ({beyond}, SI)")
+    name = f"evaluation_{Path(args.data).stem}.json"
+    files = {p.name: p.read_bytes() for p in folder.iterdir() if p.is_file()}
+    files[name] = (json.dumps(report.to_dict(), indent=2) + "\n").encode()
+    if "report.html" in files:
+        try:
+            from robocal.viz.report import report_with_evaluations   # matplotlib: the optional [viz] extra
+            files["report.html"] = report_with_evaluations(folder, [report.to_dict()])
+        except ImportError as exc:
+            print(f"robocal: report.html not updated ({exc.name} is not installed)", file=sys.stderr)
+    write_folder(folder, files, force=True)
+    print(f"\nWrote {folder / name}")
+    return 0
+
+
+def add_parser(subparsers) -> None:
+    e = subparsers.add_parser("evaluate", help="score a calibrated model (output folder) on another session")
+    e.add_argument("result_dir", help="output folder of robocal calibrate / select")
+    e.add_argument("data", help="CSV with the config's columns (another session)")
+    e.add_argument("--config", help="the calibration YAML (default: RESULT_DIR/config.yaml)")
+    e.add_argument("--refit", action="append", default=[], metavar="PATTERN",
+                   help="parameters re-registered per session, refitted on this data (e.g. 'base.*'); repeatable")
+    e.set_defaults(handler=cmd_evaluate)

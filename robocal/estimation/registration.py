@@ -1,0 +1,156 @@
+"""The nominal model registered to the data, and the default prior chosen there.
+
+`register_nominal` fits only the frames the config lets float to place the robot in the measurement
+(base, measurement set-up such as an unknown marker, measured tool frames: physical_scale.is_registration) with
+every robot parameter at nominal. Its residuals are the honest "before" figures: they compare robot models,
+not an arbitrary choice of frames. `apply_default_prior` linearises there and, if the data leave some robot
+parameter looser than its physical scale, gives every robot parameter without a prior a prior of
+strength x physical scale (also the ones the data cannot separate: they become prior-only), the strength
+chosen by the evidence (robocal.estimation.regularisation).
+The problem's parameters are left as they were found, except for the priors added.
+"""
+from __future__ import annotations
+
+import copy
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from robocal.estimation.identifiability import select_base_parameters
+from robocal.estimation.physical_scale import is_registration, measured_frames
+from robocal.estimation.regularisation import choose_strength
+from robocal.estimation.result import block_statistics
+from robocal.estimation.solve import levenberg_marquardt
+
+
+@dataclass
+class Registered:
+    names: list[str]                 # registration parameters fitted
+    values: dict[str, float]         # their values after the registration
+    before: list                     # BlockStats of the registered nominal model
+    message: str = ""
+
+
+@dataclass
+class DefaultPrior:
+    mode: str                        # auto | none
+    applied: bool
+    strength: float | None = None    # prior sigma = strength x physical scale
+    noise_ratio: float | None = None # measured noise / stated sigma (evidence estimate)
+    names: list[str] = field(default_factory=list)    # parameters that got the prior
+    loose: list[str] = field(default_factory=list)    # kept parameters the data alone leave beyond scale
+    reason: str = ""
+    method: str = "evidence of the linearised Gaussian model"
+
+    def to_dict(self) -> dict:
+        return {"mode": self.mode, "applied": self.applied, "strength_in_physical_scales": self.strength,
+                "noise_over_stated_sigma": self.noise_ratio, "method": self.method, "parameters": self.names,
+                "loose_without_prior": self.loose, "reason": self.reason}
+
+    def describe(self) -> str:
+        if self.mode == "none":
+            return "Default prior: none (solver.regularisation: none)."
+        if not self.applied:
+            return f"Default prior: not needed ({self.reason})."
+        return (f"Default prior: {len(self.names)} robot parameters, sigma = {self.strength:.3g} x physical scale "
+                f"(chosen by the {self.method}; measured noise {self.noise_ratio:.3g} x stated sigma); "
+                f"{self.reason}.")
+
+
+def data_rows(problem, n_rows: int) -> np.ndarray:
+    keep = np.ones(n_rows, bool)
+    for b in problem.blocks:
+        if b.type_name == "prior":
+            keep[b.rows] = False
+    return keep
+
+
+def fit_subset(problem, names: list[str], options):
+    """Fit only `names` (the rest held at their values); values stay at the fit, `vary` flags are restored."""
+    params = problem.params
+    free = params.free_names
+    fixed_now = [n for n in names if not params[n].vary]
+    try:
+        for n in free:
+            params[n].vary = n in names
+        for n in fixed_now:
+            params[n].vary = True
+
+        def fun(x):
+            params.set_free_values(x)
+            ev = problem.evaluate()
+            return ev.r, ev.J, ev.group
+
+        sol = levenberg_marquardt(fun, params.free_values(), *params.free_bounds(), loss=options.loss,
+                                  f_scale=options.f_scale, max_iterations=options.max_iterations,
+                                  ftol=options.ftol, xtol=options.xtol, gtol=options.gtol)
+        params.set_free_values(sol.x)
+    finally:
+        for n in fixed_now:
+            params[n].vary = False
+        for n in free:
+            params[n].vary = True
+    return sol
+
+
+def register_nominal(problem, options) -> Registered:
+    """Fit the registration parameters alone (robot at nominal); the problem's parameters are restored."""
+    params = problem.params
+    free = params.free_names
+    measured = measured_frames(problem)
+    reg = [n for n in free if is_registration(params[n], measured)]
+    start = params.values()                     # every value, tied followers included
+    warm = copy.deepcopy(problem.warm_starts)   # closed chains assemble from the last solution: keep the fit's
+    try:
+        message = fit_subset(problem, reg, options).message if reg else "nothing to register"
+        for n in free:
+            params[n].vary = n in reg      # the "before" layout: no prior rows of the robot parameters
+        before = block_statistics(problem, problem.evaluate(jacobian=False))
+        values = {n: params[n].value for n in reg}
+    finally:
+        for n in free:
+            params[n].vary = True
+        params.set_values(start)
+        problem.warm_starts = warm
+    return Registered(reg, values, before, message)
+
+
+def apply_default_prior(problem, registered: Registered, scales, rtol: float) -> DefaultPrior:
+    """Add the evidence-scaled physical prior to the kept robot parameters if the data leave one loose."""
+    params = problem.params
+    free = params.free_names
+    candidates = {n for n in free if n in scales.scale and params[n].prior_sigma is None}
+    if not candidates:
+        return DefaultPrior("auto", False, reason="no robot parameter without a prior")
+    start = params.values()
+    warm = copy.deepcopy(problem.warm_starts)
+    try:
+        x = params.free_values()
+        for k, n in enumerate(free):
+            x[k] = registered.values.get(n, x[k])
+        params.set_free_values(x)               # followers of the registration frames move with them
+        ev = problem.evaluate()
+    finally:
+        params.set_values(start)
+        problem.warm_starts = warm
+    rows = data_rows(problem, len(ev.r))
+    J, r = ev.J[rows], ev.r[rows]
+    sel = select_base_parameters(J, free, rtol)
+    kept = [free[j] for j in sel.independent]
+    sc = np.array([scales.scale[n] if n in candidates else np.inf for n in kept])
+    evd = choose_strength(J[:, sel.independent], r, sc)
+    # looseness is a property of the design: judged at the stated sigmas, not at the measured noise, which
+    # a model far from the data (a poor nominal, a wrong model) inflates
+    at_stated = evd.stderr / np.sqrt(evd.noise2) if evd.noise2 > 0 else evd.stderr
+    loose = [n for n, se in zip(kept, at_stated) if n in candidates and se > 1.0]
+    noise = float(np.sqrt(evd.noise2))
+    if not loose:
+        return DefaultPrior("auto", False, None, noise,
+                            reason="the data determine every kept robot parameter within its physical scale")
+    # every robot parameter gets it, also those the data cannot separate at all: fixing them at nominal
+    # leaves the kept ones to absorb their true errors only to first order, and the fit stalls (docs/validation.md)
+    names = [n for n in free if n in candidates]
+    for n in names:
+        params[n].prior_sigma, params[n].prior_mean = evd.strength * scales.scale[n], params[n].value
+    return DefaultPrior("auto", True, evd.strength, noise, names, loose,
+                        reason=f"the data alone leave {len(loose)} of them beyond their physical scale")

@@ -1,0 +1,81 @@
+"""The default prior's strength, chosen from the data by the evidence of the linearised Gaussian model.
+
+Model (docs/validation.md): about the registered nominal model the scaled residual is r ~ J d + e, with
+e ~ N(0, s2 I) (s2: the measured noise, in units of the stated sigmas) and each robot parameter's error
+d_j ~ N(0, (lam * scale_j)^2), scale_j its physical scale (robocal.estimation.physical_scale). The
+registration parameters (base, measurement set-up, tool) get a flat prior: they are projected out. The
+evidence p(r | lam, s2) is maximised over s2 for each lam of a fixed grid and the best lam kept.
+
+Why the evidence (and not GCV or cross-validation): it needs one linearisation, no refit (cross-validation
+over folds would cost a fit per fold and per strength); it estimates the noise level s2 at the same time,
+which the identifiability classification then uses; and on a problem the data determine it returns a broad
+prior (lam at the top of the grid), so it does not bias what the data already decide.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg
+from scipy.optimize import minimize_scalar
+
+STRENGTHS = np.logspace(-2, 1, 31)     # lam: prior sigma from 1/100 to 10 physical scales
+RANK_TOL = 1e-10
+
+
+@dataclass
+class Evidence:
+    strength: float            # lam: prior sigma = lam * physical scale
+    noise2: float              # s2: measured noise variance in units of the stated sigma^2
+    log_evidence: np.ndarray   # over STRENGTHS (each maximised over s2)
+    stderr: np.ndarray         # data-only standard error of each scaled column, in physical scales (inf: none)
+
+
+def project_out(J_flat: np.ndarray, *arrays: np.ndarray) -> tuple[int, list[np.ndarray]]:
+    """(rank of J_flat, arrays with the span of J_flat's columns removed)."""
+    if J_flat.shape[1] == 0:
+        return 0, list(arrays)
+    Q, R, _ = scipy.linalg.qr(J_flat, mode="economic", pivoting=True)
+    d = np.abs(np.diag(R))
+    rank = int(np.sum(d > RANK_TOL * max(d[0], 1e-300))) if len(d) else 0
+    Q = Q[:, :rank]
+    return rank, [a - Q @ (Q.T @ a) for a in arrays]
+
+
+def choose_strength(J: np.ndarray, r: np.ndarray, scales: np.ndarray, strengths=STRENGTHS) -> Evidence:
+    """Evidence-optimal prior strength for the columns of J with a finite scale (the others are flat).
+
+    J (m, n): Jacobian of the scaled data rows; r (m,): scaled residual at the linearisation point.
+    """
+    scales = np.asarray(scales, float)
+    scaled = np.isfinite(scales)
+    rank_flat, (y, A) = project_out(J[:, ~scaled], np.asarray(r, float), J[:, scaled] * scales[scaled])
+    m_eff = len(y) - rank_flat
+    U, d, Vt = np.linalg.svd(A, full_matrices=False)
+    z = U.T @ y
+    rest = max(float(y @ y - z @ z), 0.0)
+    k = len(d)
+    n_rest = max(m_eff - k, 0)
+
+    def neg_log_evidence(log_s2: float, lam: float) -> float:
+        s2 = np.exp(log_s2)
+        v = s2 + (lam * d) ** 2
+        return 0.5 * (np.sum(z ** 2 / v) + np.sum(np.log(v)) + (rest / s2 if n_rest else 0.0) + n_rest * log_s2)
+
+    scale0 = max((y @ y) / max(m_eff, 1), 1e-300)
+    curve, noise = [], []
+    for lam in strengths:
+        best = minimize_scalar(neg_log_evidence, bounds=(np.log(scale0) - 30, np.log(scale0) + 5),
+                               args=(lam,), method="bounded", options={"xatol": 1e-6})
+        curve.append(-best.fun)
+        noise.append(float(np.exp(best.x)))
+    i = int(np.argmax(curve))
+    stderr = np.full(len(scales), np.inf)
+    big = d > RANK_TOL * (d[0] if k else 1.0)
+    var = (Vt[big] ** 2 / d[big, None] ** 2).sum(0) * noise[i] if k else np.zeros(0)
+    if k and big.sum() == len(d):
+        stderr[scaled] = np.sqrt(var)
+    elif k:   # a singular scaled block: the null directions are not determined at all
+        null = (Vt[~big] ** 2).sum(0) > 1e-12
+        stderr[scaled] = np.where(null, np.inf, np.sqrt(var))
+    return Evidence(float(strengths[i]), noise[i], np.array(curve), stderr)

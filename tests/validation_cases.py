@@ -1,0 +1,47 @@
+"""Synthetic truth for the validation tests: a UR5 seen by a tracker at one point on its flange, written as a
+robocal config + CSV so that the commands run exactly as a user would run them."""
+import numpy as np
+import yaml
+
+from robocal import load_example
+from robocal.design.simulate import perturb, random_configurations
+from robocal.model.kinematics import ModelState
+from robocal.model.parameters import robot_parameters
+
+SIGMA = 5e-5          # m, tracker noise per axis
+JOINTS = ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint",
+          "wrist_3_joint"]
+
+
+def truth_params(robot, rng, compliance=None, geometric=True):
+    params = robot_parameters(robot, JOINTS, "full", base=True, compliance=list(compliance or {}))
+    if geometric:   # placement errors of half a millimetre / milliradian: the full model is needed
+        params = perturb(params, rng, 5e-4, 5e-4)
+    for j, c in (compliance or {}).items():
+        params[f"{j}.compliance"].value = c
+    return params
+
+
+def write_case(folder, rng, n=40, compliance=None, spread=None, parameters=None, groups=None, geometric=True):
+    """config.yaml + data.csv of a simulated calibration; returns (config path, truth ParameterSet, values)."""
+    robot = load_example("ur5")
+    truth = truth_params(robot, rng, compliance, geometric)
+    values = random_configurations(robot, JOINTS, n, rng)
+    if spread is not None:       # shrink some joints' ranges: weakly seen directions
+        for k, s in spread.items():
+            values[:, JOINTS.index(k)] = values[0, JOINTS.index(k)] + s * rng.uniform(-1, 1, n)
+    ms = ModelState(robot, truth, JOINTS)
+    pts = np.array([ms.sample(v).pose("tool0").translation for v in values]) + rng.normal(0, SIGMA, (n, 3))
+    cols = {**{j: values[:, i] for i, j in enumerate(JOINTS)}, "x": pts[:, 0], "y": pts[:, 1], "z": pts[:, 2]}
+    if groups is not None:
+        cols["session"] = groups
+    lines = [",".join(cols)] + [",".join(repr(float(c[i])) if k != "session" else str(c[i])
+                                         for k, c in cols.items()) for i in range(n)]
+    (folder / "data.csv").write_text("\n".join(lines) + "\n")
+    config = {"robot": {"example": "ur5"}, "data": {"csv": "data.csv", "joints": JOINTS},
+              "parameters": {"preset": "full", "base": True, **(parameters or {})},
+              "measurements": [{"type": "point", "name": "tracker", "frame": "tool0", "columns": ["x", "y", "z"],
+                                "sigma": SIGMA}],
+              "output": {"dir": "out", "report": False}}
+    (folder / "config.yaml").write_text(yaml.safe_dump(config))
+    return folder / "config.yaml", truth, values
