@@ -177,6 +177,16 @@ class ModelState:
             self.driven_cols += [(k, c, w, name) for k, iv, c, w in cols if k in self.driven_reads]
             cols[:] = [e for e in cols if e[0] not in self.driven_reads]
 
+    @property
+    def read_v_index(self) -> np.ndarray:
+        """Velocity index of each read joint, in `joint_names` order."""
+        return self._read_v_index
+
+    @property
+    def needs_gravity(self) -> bool:
+        """Whether the samples need their gravity torque (compliance parameters set or free)."""
+        return hasattr(self, "_gdata")
+
     def link_readings(self, values: np.ndarray, tau: np.ndarray | None = None) -> np.ndarray:
         """What the joints are set to: readings + offsets - compliance * gravity torque."""
         values = values + self.offsets

@@ -9,7 +9,8 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from robocal.residuals.base import Residual, Term
+from robocal.model.lie_arrays import jlog3, log3, transpose
+from robocal.residuals.base import BatchTerms, Residual, Term
 
 
 class PoseResidual(Residual):
@@ -33,6 +34,7 @@ class PoseResidual(Residual):
         q = m[:, 3:7] / np.linalg.norm(m[:, 3:7], axis=1, keepdims=True)
         self.measurements = np.hstack([m[:, :3], q])
         self._R = [pin.Quaternion(qw, qx, qy, qz).toRotationMatrix() for qx, qy, qz, qw in q]
+        self._R_stack = np.array(self._R).reshape(-1, 3, 3)
 
     def evaluate(self, k, states, aux):
         s = states[self.samples[k]]
@@ -44,6 +46,15 @@ class PoseResidual(Residual):
         D[:3, :3] = R
         D[3:, 3:] = pin.Jlog3(E) @ Rm
         return Term(r, [(int(self.samples[k]), self.frame, D)])
+
+    def evaluate_batch(self, terms, R, p, aux):
+        Rm = self._R_stack[terms]
+        w, theta = log3(R @ transpose(Rm))
+        r = np.concatenate([p - self.measurements[terms, :3], w], axis=1)
+        D = np.zeros((len(r), 6, 6))
+        D[:, :3, :3] = R
+        D[:, 3:, 3:] = jlog3(w, theta) @ Rm
+        return BatchTerms(r, D)
 
     def simulate(self, k, states, aux, rng):
         M = states[self.samples[k]].pose(self.frame)
