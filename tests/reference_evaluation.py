@@ -10,7 +10,7 @@ from robocal.residuals.prior import prior_rows
 
 
 def reference_evaluate(problem, jacobian: bool = True) -> Evaluation:
-    problem.blocks = problem._layout()
+    problem.blocks = problem.layout()
     states = problem.states()
     col = problem.params.column_map()
     n_free = len(problem.params.free_names)

@@ -75,6 +75,9 @@ def test_batched_residuals_and_jacobian_match_the_per_sample_reference(load_kind
         assert _relative(ev.J[block.rows], ref.J[block.rows]) < RTOL, block.name
     no_jac = problem.evaluate(jacobian=False)
     assert no_jac.J is None and _relative(no_jac.r, ref.r) < RTOL
+    # only a frame parameter changes: the kinematics kept from the last pass must not be reused as they are
+    problem.params["tcp.rx"].value += 0.05
+    assert _relative(problem.evaluate().J, reference_evaluate(problem).J) < RTOL
 
 
 def test_chunks_give_the_same_rows_as_one_pass():

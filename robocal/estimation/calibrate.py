@@ -109,8 +109,10 @@ def calibrate(problem: Problem, options: CalibrationOptions | None = None,
     Jw = ev.J * sol.weights[:, None] if sol.weights is not None else ev.J
     ssr = float(np.sum((ev.r * (sol.weights if sol.weights is not None else 1.0)) ** 2))
     sigma2 = (ssr / dof if dof > 0 else float("nan")) if opt.scale_covariance else 1.0
-    final_sel = select_base_parameters(Jw, params.free_names, opt.rank_rtol)
-    cov = covariance(Jw, sigma2) if final_sel.rank == n else np.full((n, n), np.nan)
+    # the solver's last QR, of [Jw r] at this point, has the same column geometry as Jw (R^T R = Jw^T Jw)
+    Rw = sol.triangle[:n, :n] if reuse and sol.triangle is not None else Jw
+    final_sel = select_base_parameters(Rw, params.free_names, opt.rank_rtol)
+    cov = covariance(Rw, sigma2) if final_sel.rank == n else np.full((n, n), np.nan)
     for name, s in zip(params.free_names, np.sqrt(np.abs(np.diag(cov)))):
         params[name].stderr = float(s)
     ill = final_sel.condition > opt.condition_limit or final_sel.rank < n

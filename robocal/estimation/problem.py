@@ -65,11 +65,12 @@ class Problem:
         # Identifiability keeps the earlier of two parameters it cannot tell apart: the measurement frame
         # first, then the measurement set-up (plane, sphere centre, marker points), then the robot.
         params.reorder(lambda p: KIND_ORDER.get(p.kind, 2))
-        self.blocks = self._layout()
+        self.blocks = self.layout()
         self.warm_starts: dict = {}
         self._constants: SampleConstants | None = None
 
-    def _layout(self) -> list[Block]:
+    def layout(self) -> list[Block]:
+        """The row blocks: one per residual (its kept rows times its terms), then the prior rows."""
         blocks, start = [], 0
         for res in self.residuals:
             keep = res.row_scale() != 0
@@ -98,7 +99,7 @@ class Problem:
         Serial robots evaluate the residual types that define `evaluate_batch` for all their terms at once
         (robocal.model.batch_kinematics); every other case goes term by term through SampleState. Both
         write straight into one preallocated Jacobian."""
-        self.blocks = self._layout()  # priors may have been switched on or off
+        self.blocks = self.layout()  # priors may have been switched on or off
         m = self.blocks[-1].rows.stop if self.blocks else 0
         n_free = len(self.params.free_names)
         ev = Evaluation(np.empty(m), np.zeros((m, n_free)) if jacobian else None, np.empty(m), np.empty(m, int))

@@ -113,9 +113,11 @@ class BatchKinematics:
         """(n, 6, 6 n_joints) LOCAL kinematic regressors of frame fid at the samples (cached while the
         configurations and joint placements are unchanged)."""
         q = self.q[samples]
+        # the regressor is the frame seen from each joint: it moves with the joints and with the frame
+        placements = np.vstack([self.placements, self.model.frames[fid].placement.homogeneous[None]])
         hit = self.constants.regressors.get(fid)
         if (hit is not None and np.array_equal(hit[0], samples) and np.array_equal(hit[1], q)
-                and np.array_equal(hit[2], self.placements)):
+                and np.array_equal(hit[2], placements)):
             return hit[3]
         model, data = self.model, self.data
         out = np.empty((len(samples), 6, 6 * (model.njoints - 1)))
@@ -123,7 +125,7 @@ class BatchKinematics:
             pin.forwardKinematics(model, data, qi)
             out[row] = pin.computeFrameKinematicRegressor(model, data, fid, LOCAL)
         if out.nbytes <= CACHE_BYTES:
-            self.constants.regressors[fid] = (samples.copy(), q, self.placements, out)
+            self.constants.regressors[fid] = (samples.copy(), q, placements, out)
         return out
 
     def frame(self, frame, samples) -> FrameArrays:

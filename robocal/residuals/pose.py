@@ -33,8 +33,7 @@ class PoseResidual(Residual):
     def set_measurements(self, m: np.ndarray) -> None:
         q = m[:, 3:7] / np.linalg.norm(m[:, 3:7], axis=1, keepdims=True)
         self.measurements = np.hstack([m[:, :3], q])
-        self._R = [pin.Quaternion(qw, qx, qy, qz).toRotationMatrix() for qx, qy, qz, qw in q]
-        self._R_stack = np.array(self._R).reshape(-1, 3, 3)
+        self._R = quaternion_matrices(q)
 
     def evaluate(self, k, states, aux):
         s = states[self.samples[k]]
@@ -48,7 +47,7 @@ class PoseResidual(Residual):
         return Term(r, [(int(self.samples[k]), self.frame, D)])
 
     def evaluate_batch(self, terms, R, p, aux):
-        Rm = self._R_stack[terms]
+        Rm = self._R[terms]
         w, theta = log3(R @ transpose(Rm))
         r = np.concatenate([p - self.measurements[terms, :3], w], axis=1)
         D = np.zeros((len(r), 6, 6))
@@ -67,3 +66,13 @@ class PoseResidual(Residual):
 def pose_row(M: pin.SE3) -> np.ndarray:
     """x y z qx qy qz qw of a pose."""
     return np.concatenate([M.translation, pin.Quaternion(M.rotation).coeffs()])
+
+
+def quaternion_matrices(q: np.ndarray) -> np.ndarray:
+    """(n, 3, 3) rotation matrices of unit quaternions (n, 4), x y z w (Pinocchio's toRotationMatrix)."""
+    x, y, z, w = q.T
+    out = np.empty((len(q), 3, 3))
+    out[:, 0, 0], out[:, 0, 1], out[:, 0, 2] = 1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)
+    out[:, 1, 0], out[:, 1, 1], out[:, 1, 2] = 2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)
+    out[:, 2, 0], out[:, 2, 1], out[:, 2, 2] = 2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)
+    return out
