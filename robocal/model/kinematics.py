@@ -12,6 +12,7 @@ import numpy as np
 import pinocchio as pin
 
 from robocal.model.joint_tilt import JointTilts
+from robocal.model.loops import assemble
 from robocal.model.parameters import COMPONENTS, ParameterSet
 from robocal.model.robot import ConfigurationMap
 
@@ -216,7 +217,6 @@ class ModelState:
         q = self._qmap(values)
         if self.loops is None:
             return q
-        from robocal.model.loops import assemble   # loops imports robot; keep the import graph one-way at load time
         guess = q_guess if q_guess is not None else self.warm_starts.get(label)
         if guess is not None:
             guess = guess.copy()
