@@ -15,7 +15,6 @@ FIGAROH is not timed here: installing it into its own virtual environment is not
 Each figure is the median of 3 runs; the machine may be shared, so compare ratios within the run.
 """
 import argparse
-import json
 import os
 import subprocess
 import sys
@@ -57,14 +56,15 @@ def ur5_problem(n, seed=0):
     return problem
 
 
-def floors(problem):
-    """Pinocchio's per-pose cost from Python at the problem's readings (us): (FK + frame Jacobian,
-    FK + frame kinematic regressor)."""
+def pass_costs(problem):
+    """Per-pose microseconds at the problem's readings, one of each per call, in this order: Pinocchio's
+    FK + frame Jacobian, FK + frame kinematic regressor, the reference pass and the batched pass."""
     model = problem.robot.model
     data = model.createData()
     fid = problem.robot.frame_id("tool0")
     Q = np.array([problem.robot.configuration(problem.joint_names, v) for v in problem.values])
     local = pin.ReferenceFrame.LOCAL
+    moved = problem.params["elbow_joint.rx"]
 
     def jacobian():
         for q in Q:
@@ -76,92 +76,95 @@ def floors(problem):
         for q in Q:
             pin.forwardKinematics(model, data, q)
             pin.computeFrameKinematicRegressor(model, data, fid, local)
-    return 1e6 * median_time(jacobian) / len(Q), 1e6 * median_time(regressor) / len(Q)
+
+    def reference():
+        moved.value += 1e-9
+        reference_evaluate(problem)
+
+    def batched():
+        moved.value += 1e-9
+        problem.evaluate()
+    return [1e6 * median_time(f, 1) / len(Q) for f in (jacobian, regressor, reference, batched)]
 
 
-def pass_time(problem, evaluate):
-    p = problem.params["elbow_joint.rx"]
+def fit_time(n, reference=False):
+    """calibrate() seconds on a fresh UR5 problem of n poses (batched, or the reference evaluation)."""
+    problem = ur5_problem(n)
+    if reference:
+        problem.evaluate = lambda jacobian=True, pb=problem: reference_evaluate(pb, jacobian)
+    t0 = time.perf_counter()
+    result = calibrate(problem)
+    seconds = time.perf_counter() - t0
+    assert result.solve.success
+    return seconds
 
-    def one():
-        p.value += 1e-9
-        evaluate(problem)
-    return 1e6 * median_time(one) / len(problem.values)
+
+def baseline_fit_time(tree, n):
+    env = dict(os.environ, ROBOCAL_BENCH_TREE=os.path.abspath(tree))
+    run = subprocess.run([sys.executable, __file__, "--fit-only", str(n)], env=env, capture_output=True, text=True,
+                         check=True)
+    return float(run.stdout.strip().splitlines()[-1])
 
 
-def fit_times(reference: bool):
-    """{n: median calibrate() seconds} for the UR5 sizes (fresh start parameters each run)."""
+def fit_times(baseline):
+    """{n: (batched, reference, baseline or None)} median seconds; the variants alternate within each repeat
+    so that a change in the machine's load hits all of them alike."""
     out = {}
     for n in SIZES:
-        times = []
-        for _ in range(REPEATS):
-            problem = ur5_problem(n)
-            if reference:
-                problem.evaluate = lambda jacobian=True, pb=problem: reference_evaluate(pb, jacobian)
-            t0 = time.perf_counter()
-            result = calibrate(problem)
-            times.append(time.perf_counter() - t0)
-            assert result.solve.success
-        out[n] = float(np.median(times))
+        runs = [(fit_time(n), fit_time(n, reference=True), baseline_fit_time(baseline, n) if baseline else np.nan)
+                for _ in range(REPEATS)]
+        out[n] = np.median(np.array(runs), axis=0)
     return out
 
 
-def baseline_fit_times(tree):
-    env = dict(os.environ, ROBOCAL_BENCH_TREE=os.path.abspath(tree))
-    run = subprocess.run([sys.executable, __file__, "--fit-only"], env=env, capture_output=True, text=True,
-                         check=True)
-    return {int(k): v for k, v in json.loads(run.stdout.strip().splitlines()[-1]).items()}
+def tiago_fit(reference):
+    setup = load_config(TIAGO)
+    problem = setup.problem
+    if reference:
+        problem.evaluate = lambda jacobian=True, pb=problem: reference_evaluate(pb, jacobian)
+    t0 = time.perf_counter()
+    calibrate(problem, setup.options)
+    return time.perf_counter() - t0
 
 
 def tiago_times():
-    fits = {}
-    for label, reference in (("batched", False), ("reference", True)):
-        times = []
-        for _ in range(REPEATS):
-            setup = load_config(TIAGO)
-            problem = setup.problem
-            if reference:
-                problem.evaluate = lambda jacobian=True, pb=problem: reference_evaluate(pb, jacobian)
-            t0 = time.perf_counter()
-            calibrate(problem, setup.options)
-            times.append(time.perf_counter() - t0)
-        fits[label] = float(np.median(times))
+    """Median seconds: calibrate() batched, with the reference evaluation, and the command line end to end."""
     out = os.path.join("/tmp", f"robocal_speed_{os.getpid()}")
     cmd = [sys.executable, "-c", "import sys; sys.path.insert(0, sys.argv[1]); from robocal.cli.main import main; "
            "sys.exit(main(sys.argv[2:]))", ROOT, "calibrate", TIAGO, "-o", out, "--force", "--no-report", "-q"]
-    cli = median_time(lambda: subprocess.run(cmd, check=True, capture_output=True))
-    return fits, cli
+    runs = [(tiago_fit(False), tiago_fit(True), median_time(lambda: subprocess.run(cmd, check=True,
+                                                                                    capture_output=True), 1))
+            for _ in range(REPEATS)]
+    return np.median(np.array(runs), axis=0)
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--baseline", help="a robocal tree whose calibrate() is timed on the same UR5 fits")
-    ap.add_argument("--fit-only", action="store_true", help=argparse.SUPPRESS)
+    ap.add_argument("--fit-only", type=int, help=argparse.SUPPRESS)
     args = ap.parse_args()
-    if args.fit_only:      # the --baseline subprocess: only what an older tree also has
-        print(json.dumps(fit_times(reference=False)))
+    if args.fit_only is not None:      # the --baseline subprocess: only what an older tree also has
+        print(fit_time(args.fit_only))
         return
     print("UR5 residual-and-Jacobian pass, us per pose (median of 3)")
     print(f"{'poses':>7} {'FK+Jac':>8} {'FK+reg':>8} {'reference':>10} {'batched':>9} {'batched/FK+Jac':>15} "
           f"{'reference/batched':>18}")
     for n in SIZES:
         problem = ur5_problem(n)
-        f_jac, f_reg = floors(problem)
-        ref = pass_time(problem, reference_evaluate)
-        new = pass_time(problem, lambda pb: pb.evaluate())
+        f_jac, f_reg, ref, new = np.median([pass_costs(problem) for _ in range(REPEATS)], axis=0)
         print(f"{n:>7} {f_jac:>8.2f} {f_reg:>8.2f} {ref:>10.2f} {new:>9.2f} {new / f_jac:>15.2f} {ref / new:>18.1f}")
     print("\nUR5 calibrate() wall time, ms (median of 3)")
-    new, ref = fit_times(False), fit_times(True)
-    base = baseline_fit_times(args.baseline) if args.baseline else None
+    fits = fit_times(args.baseline)
     print(f"{'poses':>7} {'batched':>9} {'reference':>10} {'ref/batched':>12}"
-          + (f" {'baseline':>9} {'baseline/batched':>17}" if base else ""))
-    for n in SIZES:
-        line = f"{n:>7} {1e3 * new[n]:>9.1f} {1e3 * ref[n]:>10.1f} {ref[n] / new[n]:>12.1f}"
-        if base:
-            line += f" {1e3 * base[n]:>9.1f} {base[n] / new[n]:>17.1f}"
+          + (f" {'baseline':>9} {'baseline/batched':>17}" if args.baseline else ""))
+    for n, (new, ref, base) in fits.items():
+        line = f"{n:>7} {1e3 * new:>9.1f} {1e3 * ref:>10.1f} {ref / new:>12.1f}"
+        if args.baseline:
+            line += f" {1e3 * base:>9.1f} {base / new:>17.1f}"
         print(line)
-    fits, cli = tiago_times()
-    print(f"\nTIAGo full_bl calibrate(): batched {1e3 * fits['batched']:.1f} ms, reference "
-          f"{1e3 * fits['reference']:.1f} ms; `robocal calibrate --no-report` end to end {1e3 * cli:.0f} ms")
+    new, ref, cli = tiago_times()
+    print(f"\nTIAGo full_bl (median of 3): calibrate() batched {1e3 * new:.1f} ms, reference {1e3 * ref:.1f} ms; "
+          f"`robocal calibrate --no-report` end to end {1e3 * cli:.0f} ms")
     print("FIGAROH comparison: not implemented in this script (see the module doc)")
 
 

@@ -10,6 +10,7 @@ import pinocchio as pin
 import pytest
 
 from reference_evaluation import reference_evaluate
+from test_residual_jacobians import free_auxiliaries
 from robocal import load_example
 from robocal.estimation.calibrate import calibrate
 from robocal.estimation.problem import Problem
@@ -50,10 +51,7 @@ def _problem(rng, load_kinds=("compliance", "backlash"), n=40):
     residuals[0].weights[5] = 0.0   # a dropped row keeps the row bookkeeping honest
     directions = rng.integers(-1, 2, values.shape).astype(float)
     problem = Problem(robot, params, joints, values, residuals, directions=directions)
-    for p in params:
-        if p.kind == "auxiliary":
-            p.vary = True
-            p.value += rng.normal(0, 0.01)
+    free_auxiliaries(params, rng)
     return problem
 
 

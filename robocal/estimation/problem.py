@@ -103,16 +103,17 @@ class Problem:
         m = self.blocks[-1].rows.stop if self.blocks else 0
         n_free = len(self.params.free_names)
         ev = Evaluation(np.empty(m), np.zeros((m, n_free)) if jacobian else None, np.empty(m), np.empty(m, int))
-        for rows, r, raw, group, J in self.pieces(jacobian):
+        for rows, r, raw, group, J in self.pieces(jacobian, out=ev.J):
             ev.r[rows], ev.raw[rows], ev.group[rows] = r, raw, group
-            if jacobian:
+            if jacobian and not np.may_share_memory(J, ev.J):
                 ev.J[rows] = J
         return ev
 
-    def pieces(self, jacobian: bool = True, chunk_terms: int | None = None):
+    def pieces(self, jacobian: bool = True, chunk_terms: int | None = None, out: np.ndarray | None = None):
         """Yield (rows, r, raw, group, J) for consecutive row ranges of the stacked problem: a batched
         residual in chunks of at most `chunk_terms` terms (None: all at once), any other residual whole,
-        and the prior rows last. Memory then grows with the chunk, not with the samples."""
+        and the prior rows last. Memory then grows with the chunk, not with the samples. With `out`, the
+        whole (m, n_free) Jacobian, batched rows are written straight into it (J is then a view of it)."""
         ms = self.model_state()
         col = self.params.column_map()
         n_free = ms.n_free
@@ -139,7 +140,9 @@ class Problem:
                     t = res.evaluate_batch(terms, fa.R, fa.p, aux)
                     Jt = None
                     if jacobian:
-                        Jt = t.D @ fa.jacobian
+                        direct = out is not None and n_keep == res.dim
+                        Jt = np.matmul(t.D, fa.jacobian, out=out[rows].reshape(n_t, res.dim, n_free) if direct
+                                       else None)
                         for j, c, w in aux_cols:
                             Jt[:, :, c] += w * t.aux[:, :, j]
                         Jt *= scale[:, None]

@@ -41,7 +41,8 @@ def supports_batch(ms) -> bool:
 @dataclass
 class FrameArrays:
     """One frame at n samples: world pose (R, p) (measurement frame), pose on the robot (R0, p0) and the
-    (n, 6, n_free) LOCAL twist per free parameter."""
+    (n, 6, n_free) LOCAL twist per free parameter (a work array: valid until the next `frame` call for the
+    same frame on the same problem)."""
 
     R: np.ndarray
     p: np.ndarray
@@ -56,12 +57,13 @@ class SampleConstants:
 
     def __init__(self, robot, joint_names, values: np.ndarray, needs_gravity: bool, v_index: np.ndarray):
         self.values = values.copy()
+        self.configurations = robot_configuration_map(robot, joint_names)
         self.tau = None
         if needs_gravity:
             model = robot.model
             data = model.createData()
-            qmap = robot_configuration_map(robot, joint_names)
-            self.tau = np.array([pin.computeGeneralizedGravity(model, data, q)[v_index] for q in qmap(values)])
+            self.tau = np.array([pin.computeGeneralizedGravity(model, data, q)[v_index]
+                                 for q in self.configurations(values)])
         model = robot.model
         data = model.createData()
         pin.computeJointJacobians(model, data, pin.neutral(model))
@@ -72,6 +74,15 @@ class SampleConstants:
                 J = pin.getJointJacobian(model, data, jid, LOCAL)
                 self.subspace[jm.idx_v:jm.idx_v + jm.nv] = J[:, jm.idx_v:jm.idx_v + jm.nv].T
         self.regressors: dict = {}                  # frame id -> (q, joint placements, regressors) of the last pass
+        self.buffers: dict = {}
+
+    def buffer(self, key, shape) -> np.ndarray:
+        """A work array kept between passes: writing into memory already mapped is several times faster
+        than into a fresh array (its pages fault in on first touch), which matters at 10^4 samples."""
+        b = self.buffers.get(key)
+        if b is None or b.shape != shape:
+            b = self.buffers[key] = np.empty(shape)
+        return b
 
     def matches(self, values: np.ndarray) -> bool:
         return self.values.shape == values.shape and np.array_equal(self.values, values)
@@ -105,28 +116,41 @@ class BatchKinematics:
         link = link + ms.offsets
         if constants.tau is not None:
             link = link - ms.compliance * constants.tau
-        self.q = robot_configuration_map(ms.robot, ms.joint_names)(link)
+        self.q = constants.configurations(link)
         self.directions = directions
-        self.placements = np.array([M.homogeneous for M in self.model.jointPlacements])
+        self._twist_map = None
 
     def regressors(self, fid: int, samples: np.ndarray) -> np.ndarray:
         """(n, 6, 6 n_joints) LOCAL kinematic regressors of frame fid at the samples (cached while the
         configurations and joint placements are unchanged)."""
         q = self.q[samples]
         # the regressor is the frame seen from each joint: it moves with the joints and with the frame
-        placements = np.vstack([self.placements, self.model.frames[fid].placement.homogeneous[None]])
+        model = self.model
+        joints = model.supports[model.frames[fid].parentJoint]
+        placements = np.array([model.jointPlacements[j].homogeneous for j in joints[1:]]
+                              + [model.frames[fid].placement.homogeneous])
         hit = self.constants.regressors.get(fid)
         if (hit is not None and np.array_equal(hit[0], samples) and np.array_equal(hit[1], q)
                 and np.array_equal(hit[2], placements)):
             return hit[3]
-        model, data = self.model, self.data
-        out = np.empty((len(samples), 6, 6 * (model.njoints - 1)))
+        data = self.data
+        shape = (len(samples), 6, 6 * (model.njoints - 1))
+        out = hit[3] if hit is not None and hit[3].shape == shape else np.empty(shape)   # the old entry's memory
         for row, qi in enumerate(q):
             pin.forwardKinematics(model, data, qi)
             out[row] = pin.computeFrameKinematicRegressor(model, data, fid, LOCAL)
         if out.nbytes <= CACHE_BYTES:
             self.constants.regressors[fid] = (samples.copy(), q, placements, out)
         return out
+
+    def twist_map(self, ms) -> np.ndarray:
+        """(6 n_joints, n_free): d(placement twists)/d(free parameters), with each offset column written as
+        its joint's motion subspace S_j (a joint turning by dq moves the frame like a placement twist S_j dq)."""
+        if self._twist_map is None:
+            S = self.constants.subspace                       # (nv, 6); one-dof joints: v = joint - 1
+            offsets = (S[:, :, None] * ms.P_offset[:, None, :]).reshape(-1, ms.n_free)
+            self._twist_map = offsets + ms.P_joint if ms.has_joint_params else offsets
+        return self._twist_map
 
     def frame(self, frame, samples) -> FrameArrays:
         ms, model = self.ms, self.model
@@ -150,19 +174,24 @@ class BatchKinematics:
             root = model.jointPlacements[j0]
             R0 = root.rotation @ transpose(RX)
             p0 = root.translation - np.einsum("nij,nj->ni", R0, pX)
-        Jq = np.einsum("nijk,jk->nij", reg.reshape(n, 6, nj, 6), self.constants.subspace)   # (n, 6, nv)
-        J = (Jq.reshape(-1, model.nv) @ ms.P_offset).reshape(n, 6, nf)   # one GEMM over all samples
-        tau = self.constants.tau
-        for k, iv, c, w in ms.compliance_cols:          # d q_link / d c = -tau_g
-            J[:, :, c] -= w * Jq[:, :, iv] * tau[unique, k][:, None]
-        for k, iv, c, w in ms.backlash_cols:            # d q_link / d b = d
-            J[:, :, c] += w * Jq[:, :, iv] * self.directions[unique, k][:, None]
-        if ms.has_joint_params:
-            J += (reg.reshape(-1, 6 * nj) @ ms.P_joint).reshape(n, 6, nf)
+        # offsets act through the joints' columns Ad(X_j) S_j: folded into the placement map, one GEMM serves
+        # both (the (n*6, 6 n_joints) regressors times a (6 n_joints, n_free) map)
+        J = self.constants.buffer(("jacobian", fid), (n, 6, nf))
+        np.matmul(reg.reshape(-1, 6 * nj), self.twist_map(ms), out=J.reshape(-1, nf))
+        if ms.compliance_cols or ms.backlash_cols:
+            Jq = np.einsum("nijk,jk->nij", reg.reshape(n, 6, nj, 6), self.constants.subspace)   # (n, 6, nv)
+            tau = self.constants.tau
+            for k, iv, c, w in ms.compliance_cols:          # d q_link / d c = -tau_g
+                J[:, :, c] -= w * Jq[:, :, iv] * tau[unique, k][:, None]
+            for k, iv, c, w in ms.backlash_cols:            # d q_link / d b = d
+                J[:, :, c] += w * Jq[:, :, iv] * self.directions[unique, k][:, None]
         if fid in ms.P_frame:
             J += ms.P_frame[fid]
         if ms.has_base_params:
-            J += adjoint_inverse(R0, p0) @ ms.P_base
+            cols = np.flatnonzero(np.any(ms.P_base != 0.0, axis=0))    # the base's own columns only
+            if cols[-1] - cols[0] + 1 == len(cols):
+                cols = slice(cols[0], cols[-1] + 1)
+            J[:, :, cols] += adjoint_inverse(R0, p0) @ ms.P_base[:, cols]
         Rb, pb = ms.base.rotation, ms.base.translation
         R = Rb @ R0
         p = p0 @ Rb.T + pb

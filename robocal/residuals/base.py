@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
+from functools import lru_cache
 from typing import ClassVar, Sequence
 
 import numpy as np
@@ -103,8 +104,7 @@ class Residual(ABC):
     def batched(self) -> bool:
         """Whether `evaluate_batch` serves this residual: defined, and `evaluate` not overridden below it
         (a subclass that changes `evaluate` alone falls back to the per-term path)."""
-        owner = next((c for c in type(self).__mro__ if "evaluate_batch" in vars(c)), Residual)
-        return owner is not Residual and type(self).evaluate is owner.evaluate
+        return batch_capable(type(self))
 
     def simulate(self, k: int, states: Sequence, aux: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         """A noisy measurement row for term k (observed types only)."""
@@ -133,6 +133,12 @@ class Residual(ABC):
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}(name={self.name!r}, terms={self.n_terms})"
+
+
+@lru_cache(maxsize=None)
+def batch_capable(cls: type) -> bool:
+    owner = next((c for c in cls.__mro__ if "evaluate_batch" in vars(c)), Residual)
+    return owner is not Residual and cls.evaluate is owner.evaluate
 
 
 # ---- geometry helpers shared by residual files ---------------------------------------------
