@@ -12,18 +12,16 @@ chunks once more with the robust weights otherwise.
 from __future__ import annotations
 
 import numpy as np
-import scipy.linalg
 
 from robocal.estimation.problem import Evaluation, Problem
+from robocal.estimation.solve import r_factor
 
 CHUNK_TERMS = 20_000
 
 
 def stack_triangle(T: np.ndarray, block: np.ndarray) -> np.ndarray:
     """Triangle of [T; block] ((n+1) x (n+1))."""
-    k = T.shape[1]
-    R = scipy.linalg.qr(np.vstack([T, block]), mode="r", overwrite_a=True, check_finite=False)[0][:k]
-    return np.vstack([R, np.zeros((k - len(R), k))]) if len(R) < k else R
+    return r_factor(np.vstack([T, block]), overwrite=True)
 
 
 class ChunkedJacobian:
