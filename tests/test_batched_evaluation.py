@@ -130,3 +130,10 @@ def test_fitted_parameters_match_the_reference_fit():
         assert result.solve.success
         fits.append(np.array([problem.params[n].value for n in problem.params.names]))
     assert _relative(fits[0], fits[1]) < RTOL
+
+
+def test_no_free_parameter_still_gives_residuals():
+    problem = _problem(np.random.default_rng(4))
+    problem.params.fix("*")
+    ev = problem.evaluate()
+    assert ev.J.shape == (len(ev.r), 0) and _relative(ev.r, reference_evaluate(problem).r) < RTOL

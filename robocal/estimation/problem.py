@@ -163,7 +163,7 @@ class Problem:
                         for j, c, w in aux_cols:
                             Jt[:, c] += w * t.aux[:, j]
                         Jr[k - k0] = (Jt * scale[:, None])[keep]
-                yield rows, r.ravel(), raw.ravel(), group, (Jr.reshape(-1, n_free) if jacobian else None)
+                yield rows, r.ravel(), raw.ravel(), group, (Jr.reshape(n_t * n_keep, n_free) if jacobian else None)
             gid += res.n_terms
         pr, pJ, _ = prior_rows(self.params)
         if len(pr):

@@ -148,7 +148,7 @@ class BatchKinematics:
         its joint's motion subspace S_j (a joint turning by dq moves the frame like a placement twist S_j dq)."""
         if self._twist_map is None:
             S = self.constants.subspace                       # (nv, 6); one-dof joints: v = joint - 1
-            offsets = (S[:, :, None] * ms.P_offset[:, None, :]).reshape(-1, ms.n_free)
+            offsets = (S[:, :, None] * ms.P_offset[:, None, :]).reshape(6 * len(S), ms.n_free)
             self._twist_map = offsets + ms.P_joint if ms.has_joint_params else offsets
         return self._twist_map
 
@@ -177,7 +177,7 @@ class BatchKinematics:
         # offsets act through the joints' columns Ad(X_j) S_j: folded into the placement map, one GEMM serves
         # both (the (n*6, 6 n_joints) regressors times a (6 n_joints, n_free) map)
         J = self.constants.buffer(("jacobian", fid), (n, 6, nf))
-        np.matmul(reg.reshape(-1, 6 * nj), self.twist_map(ms), out=J.reshape(-1, nf))
+        np.matmul(reg.reshape(6 * n, 6 * nj), self.twist_map(ms), out=J.reshape(6 * n, nf))
         if ms.compliance_cols or ms.backlash_cols:
             Jq = np.einsum("nijk,jk->nij", reg.reshape(n, 6, nj, 6), self.constants.subspace)   # (n, 6, nv)
             tau = self.constants.tau
