@@ -11,6 +11,7 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "tests"))
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))   # this checkout's robocal, not an installed one
 from synthetic_cases import ur5_pose_problem  # noqa: E402
 
 from robocal.estimation.calibrate import calibrate  # noqa: E402

@@ -22,11 +22,16 @@ def _problem(residual_factory, rng):
     values = rng.uniform(-2, 2, (n, len(joints)))
     res = residual_factory(np.arange(n), rng)
     problem = Problem(robot, params, joints, values, [res])
+    free_auxiliaries(params, rng)
+    return problem
+
+
+def free_auxiliaries(params, rng):
+    """Estimate every set-up quantity, starting 1 cm (or 10 mrad) off its nominal value."""
     for p in params:
         if p.kind == "auxiliary":
             p.vary = True
             p.value += rng.normal(0, 0.01)
-    return problem
 
 
 def _q(rng, n):

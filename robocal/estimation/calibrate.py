@@ -25,7 +25,7 @@ from robocal.estimation.plausibility import check_fit, nominal_values
 from robocal.estimation.registration import DefaultPrior, apply_default_prior, register_nominal
 from robocal.estimation.problem import Evaluation, Problem
 from robocal.estimation.result import BlockStats, CalibrationResult, block_statistics
-from robocal.estimation.solve import Iteration, levenberg_marquardt
+from robocal.estimation.solve import Iteration, levenberg_marquardt, r_factor
 
 log = logging.getLogger(__name__)
 MAX_SELECTION_PASSES = 3
@@ -96,7 +96,7 @@ def calibrate(problem: Problem, options: CalibrationOptions | None = None,
         if b.type_name == "prior":
             data_rows[b.rows] = False
     with_prior = [j for j, n in enumerate(requested) if params[n].prior_sigma is not None]
-    first = select_base_parameters(ev0.J[data_rows], requested, opt.rank_rtol)
+    first = select_base_parameters(data_factor(ev0.J, data_rows), requested, opt.rank_rtol)
     prior_only = [requested[j] for j in first.dependent if j in with_prior]
     selection = _apply_selection(params, requested, None, opt.rank_rtol, first.keep_also(with_prior))
     kept = [requested.index(n) for n in params.free_names]          # the solver starts where ev0 was taken
@@ -114,7 +114,7 @@ def calibrate(problem: Problem, options: CalibrationOptions | None = None,
         for name in requested:
             params[name].vary = True
         allowed = set(selection.independent) | set(hidden)
-        again = select_base_parameters(problem.evaluate().J[data_rows], requested, opt.rank_rtol,
+        again = select_base_parameters(data_factor(problem.evaluate().J, data_rows), requested, opt.rank_rtol,
                                        allowed).keep_also(with_prior)
         if again.independent == selection.independent:   # same set; explain it as seen at the solution
             selection = _apply_selection(params, requested, None, opt.rank_rtol, again)
@@ -131,8 +131,10 @@ def calibrate(problem: Problem, options: CalibrationOptions | None = None,
     Jw = ev.J * sol.weights[:, None] if sol.weights is not None else ev.J
     ssr = float(np.sum((ev.r * (sol.weights if sol.weights is not None else 1.0)) ** 2))
     sigma2 = (ssr / dof if dof > 0 else float("nan")) if opt.scale_covariance else 1.0
-    final_sel = select_base_parameters(Jw, params.free_names, opt.rank_rtol)
-    cov = covariance(Jw, sigma2) if final_sel.rank == n else np.full((n, n), np.nan)
+    # the solver's last QR, of [Jw r] at its solution, has the same column geometry as Jw (R^T R = Jw^T Jw)
+    Rw = sol.triangle[:n, :n] if sol.triangle is not None else Jw
+    final_sel = select_base_parameters(Rw, params.free_names, opt.rank_rtol)
+    cov = covariance(Rw, sigma2) if final_sel.rank == n else np.full((n, n), np.nan)
     for name, s in zip(params.free_names, np.sqrt(np.abs(np.diag(cov)))):
         params[name].stderr = float(s)
     ill = final_sel.condition > opt.condition_limit or final_sel.rank < n
@@ -155,6 +157,12 @@ def calibrate(problem: Problem, options: CalibrationOptions | None = None,
     result.robot_size = scales.size
     result.refusals = check_fit(result, nominal, scales, opt.regularisation, opt.max_iterations)
     return result
+
+
+def data_factor(J: np.ndarray, data_rows: np.ndarray) -> np.ndarray:
+    """R of the data rows of J (R^T R = J^T J over them): the selection sees the same column geometry in an
+    n x n matrix, factored once here instead of copied and factored again inside it."""
+    return r_factor(J if data_rows.all() else J[data_rows])
 
 
 def _apply_selection(params, requested, J, rtol, selection=None):

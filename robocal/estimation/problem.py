@@ -10,6 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from robocal.model.batch_kinematics import BatchKinematics, SampleConstants, supports_batch
 from robocal.model.kinematics import ModelState
 from robocal.model.parameters import ParameterSet
 from robocal.residuals.base import Residual
@@ -64,10 +65,12 @@ class Problem:
         # Identifiability keeps the earlier of two parameters it cannot tell apart: the measurement frame
         # first, then the measurement set-up (plane, sphere centre, marker points), then the robot.
         params.reorder(lambda p: KIND_ORDER.get(p.kind, 2))
-        self.blocks = self._layout()
+        self.blocks = self.layout()
         self.warm_starts: dict = {}
+        self._constants: SampleConstants | None = None
 
-    def _layout(self) -> list[Block]:
+    def layout(self) -> list[Block]:
+        """The row blocks: one per residual (its kept rows times its terms), then the prior rows."""
         blocks, start = [], 0
         for res in self.residuals:
             keep = res.row_scale() != 0
@@ -91,44 +94,90 @@ class Problem:
         return np.array([self.params[p.name].value for p in res.aux_parameters()])
 
     def evaluate(self, jacobian: bool = True) -> Evaluation:
-        """Residuals (and Jacobian) at the parameters' current values."""
-        self.blocks = self._layout()  # priors may have been switched on or off
-        states = self.states()
-        free = self.params.free_names
+        """Residuals (and Jacobian) at the parameters' current values.
+
+        Serial robots evaluate the residual types that define `evaluate_batch` for all their terms at once
+        (robocal.model.batch_kinematics); every other case goes term by term through SampleState. Both
+        write straight into one preallocated Jacobian."""
+        self.blocks = self.layout()  # priors may have been switched on or off
+        m = self.blocks[-1].rows.stop if self.blocks else 0
+        n_free = len(self.params.free_names)
+        ev = Evaluation(np.empty(m), np.zeros((m, n_free)) if jacobian else None, np.empty(m), np.empty(m, int))
+        for rows, r, raw, group, J in self.pieces(jacobian, out=ev.J):
+            ev.r[rows], ev.raw[rows], ev.group[rows] = r, raw, group
+            if jacobian and not np.may_share_memory(J, ev.J):
+                ev.J[rows] = J
+        return ev
+
+    def pieces(self, jacobian: bool = True, chunk_terms: int | None = None, out: np.ndarray | None = None):
+        """Yield (rows, r, raw, group, J) for consecutive row ranges of the stacked problem: a batched
+        residual in chunks of at most `chunk_terms` terms (None: all at once), any other residual whole,
+        and the prior rows last. Memory then grows with the chunk, not with the samples. With `out`, the
+        whole (m, n_free) Jacobian, batched rows are written straight into it (J is then a view of it)."""
+        ms = self.model_state()
         col = self.params.column_map()
-        n_free = len(free)
-        rs, raws, Js, groups = [], [], [], []
+        n_free = ms.n_free
+        batch = None
+        if supports_batch(ms) and any(res.batched for res in self.residuals):
+            batch = BatchKinematics(ms, self.sample_constants(ms), self.values, self.directions)
+        states = None
         gid = 0
-        for res in self.residuals:
+        for res, block in zip(self.residuals, self.blocks):
             scale = res.row_scale()
             keep = scale != 0
+            n_keep = int(keep.sum())
             aux_names = [p.name for p in res.aux_parameters()]
             aux = np.array([self.params[n].value for n in aux_names])
             aux_cols = [(j, c, w) for j, n in enumerate(aux_names) for c, w in col.get(n, [])]
-            for k in range(res.n_terms):
-                t = res.evaluate(k, states, aux)
-                raws.append(t.r[keep])
-                rs.append((t.r * scale)[keep])
-                groups.append(np.full(int(keep.sum()), gid))
-                gid += 1
-                if jacobian:
-                    Jt = np.zeros((res.dim, n_free))
-                    for i, frame, D in t.frames:
-                        Jt += D @ states[i].frame_parameter_jacobian(frame)
-                    for j, c, w in aux_cols:
-                        Jt[:, c] += w * t.aux[:, j]
-                    Js.append((Jt * scale[:, None])[keep])
+            step = res.n_terms if batch is None or not res.batched else (chunk_terms or res.n_terms)
+            for k0 in range(0, res.n_terms, max(step, 1)):
+                terms = slice(k0, min(k0 + max(step, 1), res.n_terms))
+                n_t = terms.stop - terms.start
+                rows = slice(block.rows.start + k0 * n_keep, block.rows.start + terms.stop * n_keep)
+                group = gid + np.repeat(np.arange(k0, terms.stop), n_keep)
+                if batch is not None and res.batched:
+                    fa = batch.frame(res.frame, res.samples[terms])
+                    t = res.evaluate_batch(terms, fa.R, fa.p, aux)
+                    Jt = None
+                    if jacobian:
+                        direct = out is not None and n_keep == res.dim
+                        Jt = np.matmul(t.D, fa.jacobian, out=out[rows].reshape(n_t, res.dim, n_free) if direct
+                                       else None)
+                        for j, c, w in aux_cols:
+                            Jt[:, :, c] += w * t.aux[:, :, j]
+                        Jt *= scale[:, None]
+                        Jt = (Jt if n_keep == res.dim else Jt[:, keep]).reshape(n_t * n_keep, n_free)
+                    raw = t.r if n_keep == res.dim else t.r[:, keep]
+                    yield rows, (raw * scale[keep]).ravel(), raw.ravel(), group, Jt
+                    continue
+                states = states or self.states(ms)
+                r, raw = np.empty((n_t, n_keep)), np.empty((n_t, n_keep))
+                Jr = np.zeros((n_t, n_keep, n_free)) if jacobian else None
+                for k in range(terms.start, terms.stop):
+                    t = res.evaluate(k, states, aux)
+                    raw[k - k0], r[k - k0] = t.r[keep], (t.r * scale)[keep]
+                    if jacobian:
+                        Jt = np.zeros((res.dim, n_free))
+                        for i, frame, D in t.frames:
+                            Jt += D @ states[i].frame_parameter_jacobian(frame)
+                        for j, c, w in aux_cols:
+                            Jt[:, c] += w * t.aux[:, j]
+                        Jr[k - k0] = (Jt * scale[:, None])[keep]
+                yield rows, r.ravel(), raw.ravel(), group, (Jr.reshape(n_t * n_keep, n_free) if jacobian else None)
+            gid += res.n_terms
         pr, pJ, _ = prior_rows(self.params)
         if len(pr):
-            rs.append(pr)
-            raws.append(pr)
-            groups.append(np.arange(gid, gid + len(pr)))
-            if jacobian:
-                Js.append(pJ)
-        r = np.concatenate(rs) if rs else np.zeros(0)
-        J = (np.vstack(Js) if Js else np.zeros((0, n_free))) if jacobian else None
-        return Evaluation(r, J, np.concatenate(raws) if raws else np.zeros(0),
-                          np.concatenate(groups) if groups else np.zeros(0, int))
+            rows = slice(self.blocks[-1].rows.start, self.blocks[-1].rows.stop)
+            yield rows, pr, pr, np.arange(gid, gid + len(pr)), pJ if jacobian else None
+
+    def sample_constants(self, ms: ModelState) -> SampleConstants:
+        """Per-sample quantities that the parameters cannot change (gravity torques, regressors while the
+        kinematics stay put), kept between evaluations while the readings are the same."""
+        c = self._constants
+        if c is None or not c.matches(self.values) or (ms.needs_gravity and c.tau is None):
+            c = self._constants = SampleConstants(self.robot, self.joint_names, self.values, ms.needs_gravity,
+                                                  ms.read_v_index)
+        return c
 
 
 class LazyStates:

@@ -12,6 +12,7 @@ import numpy as np
 import pinocchio as pin
 
 from robocal.model.joint_tilt import JointTilts
+from robocal.model.loops import assemble
 from robocal.model.parameters import COMPONENTS, ParameterSet
 from robocal.model.robot import ConfigurationMap
 
@@ -177,6 +178,16 @@ class ModelState:
             self.driven_cols += [(k, c, w, name) for k, iv, c, w in cols if k in self.driven_reads]
             cols[:] = [e for e in cols if e[0] not in self.driven_reads]
 
+    @property
+    def read_v_index(self) -> np.ndarray:
+        """Velocity index of each read joint, in `joint_names` order."""
+        return self._read_v_index
+
+    @property
+    def needs_gravity(self) -> bool:
+        """Whether the samples need their gravity torque (compliance parameters set or free)."""
+        return hasattr(self, "_gdata")
+
     def link_readings(self, values: np.ndarray, tau: np.ndarray | None = None) -> np.ndarray:
         """What the joints are set to: readings + offsets - compliance * gravity torque."""
         values = values + self.offsets
@@ -206,7 +217,6 @@ class ModelState:
         q = self._qmap(values)
         if self.loops is None:
             return q
-        from robocal.model.loops import assemble   # loops imports robot; keep the import graph one-way at load time
         guess = q_guess if q_guess is not None else self.warm_starts.get(label)
         if guess is not None:
             guess = guess.copy()

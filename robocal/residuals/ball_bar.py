@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from robocal.residuals.base import Aux, Residual, Term, point_jacobian, vector_aux
+from robocal.residuals.base import Aux, Residual, Term, distance_terms, point_jacobian, vector_aux
 
 
 class BallBarResidual(Residual):
@@ -39,6 +39,9 @@ class BallBarResidual(Residual):
         r = np.array([dist - self.measurements[k, 0] - aux[3]])
         A = np.concatenate([-e, [-1.0], e @ M.rotation])[None, :]
         return Term(r, [(i, self.frame, (e @ point_jacobian(M, aux[4:7]))[None, :])], A)
+
+    def evaluate_batch(self, terms, R, p, aux):
+        return distance_terms(R, p, aux, self.measurements[terms, 0])
 
     def simulate(self, k, states, aux, rng):
         dist, _ = self._distance(states[self.samples[k]].pose(self.frame), aux)

@@ -11,11 +11,13 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
+from functools import lru_cache
 from typing import ClassVar, Sequence
 
 import numpy as np
 import pinocchio as pin
 
+from robocal.model import lie_arrays
 from robocal.model.parameters import Parameter
 
 
@@ -25,6 +27,16 @@ class Term:
 
     r: np.ndarray
     frames: list[tuple[int, str, np.ndarray]] = field(default_factory=list)
+    aux: np.ndarray | None = None
+
+
+@dataclass
+class BatchTerms:
+    """Every term of a residual at once (n terms): r (n, d), D (n, d, 6) the derivative w.r.t. a LOCAL
+    right twist of the residual's frame, aux (n, d, n_aux) or None."""
+
+    r: np.ndarray
+    D: np.ndarray
     aux: np.ndarray | None = None
 
 
@@ -81,6 +93,19 @@ class Residual(ABC):
     def evaluate(self, k: int, states: Sequence, aux: np.ndarray) -> Term:
         """Error and derivatives of term k. states[i] is the SampleState of sample i."""
 
+    def evaluate_batch(self, terms: slice, R: np.ndarray, p: np.ndarray, aux: np.ndarray) -> BatchTerms:
+        """Terms `terms` (a slice) at once, from the frame's world poses at their samples, R (n, 3, 3), p (n, 3).
+
+        Optional: types with one frame and one sample per term define it to serve the batched evaluation
+        (robocal.estimation.problem); it must agree with `evaluate` term by term."""
+        raise NotImplementedError(f"{self.type_name} has no batched evaluation")
+
+    @property
+    def batched(self) -> bool:
+        """Whether `evaluate_batch` serves this residual: defined, and `evaluate` not overridden below it
+        (a subclass that changes `evaluate` alone falls back to the per-term path)."""
+        return batch_capable(type(self))
+
     def simulate(self, k: int, states: Sequence, aux: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         """A noisy measurement row for term k (observed types only)."""
         raise NotImplementedError(f"{self.type_name} is a constraint type: simulate by projection")
@@ -108,6 +133,12 @@ class Residual(ABC):
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}(name={self.name!r}, terms={self.n_terms})"
+
+
+@lru_cache(maxsize=None)
+def batch_capable(cls: type) -> bool:
+    owner = next((c for c in cls.__mro__ if "evaluate_batch" in vars(c)), Residual)
+    return owner is not Residual and cls.evaluate is owner.evaluate
 
 
 # ---- geometry helpers shared by residual files ---------------------------------------------
@@ -143,3 +174,15 @@ def tilted_direction(R0: np.ndarray, a: float, b: float) -> tuple[np.ndarray, np
 def vector_aux(prefix: str, value, unit: str, vary: bool) -> list[Aux]:
     value = np.asarray(value, dtype=float).reshape(3)
     return [Aux(f"{prefix}.{c}", float(v), unit, vary) for c, v in zip("xyz", value)]
+
+
+def distance_terms(R: np.ndarray, p: np.ndarray, aux: np.ndarray, length) -> BatchTerms:
+    """Batched r = |M tip - centre| - length - aux[3], aux = [centre (3), length correction, tip (3)]: a ball on
+    the frame at a distance from a fixed centre (sphere contact, ball bar)."""
+    w = lie_arrays.act(R, p, aux[4:7]) - aux[:3]
+    dist = np.linalg.norm(w, axis=1)
+    e = w / dist[:, None]
+    r = (dist - length - aux[3])[:, None]
+    A = np.concatenate([-e, -np.ones((len(e), 1)), np.einsum("ni,nij->nj", e, R)], axis=1)[:, None, :]
+    D = np.einsum("ni,nij->nj", e, lie_arrays.point_jacobian(R, aux[4:7]))[:, None, :]
+    return BatchTerms(r, D, A)

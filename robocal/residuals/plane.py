@@ -10,7 +10,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from robocal.residuals.base import Aux, Residual, Term, basis_from_normal, point_jacobian, tilted_direction, vector_aux
+from robocal.model import lie_arrays
+from robocal.residuals.base import (Aux, BatchTerms, Residual, Term, basis_from_normal, point_jacobian,
+                                     tilted_direction, vector_aux)
 
 
 class PlaneResidual(Residual):
@@ -41,3 +43,12 @@ class PlaneResidual(Residual):
         r = np.array([n @ x - aux[2] - self.tip_radius])
         A = np.concatenate([x @ dn, [-1.0], n @ M.rotation])[None, :]
         return Term(r, [(i, self.frame, (n @ point_jacobian(M, p))[None, :])], A)
+
+    def evaluate_batch(self, terms, R, p, aux):
+        tip = aux[3:6]
+        x = lie_arrays.act(R, p, tip)
+        n, dn = tilted_direction(self.R0, aux[0], aux[1])
+        r = (x @ n - aux[2] - self.tip_radius)[:, None]
+        A = np.concatenate([x @ dn, -np.ones((len(x), 1)), np.einsum("i,nij->nj", n, R)], axis=1)[:, None, :]
+        D = np.einsum("i,nij->nj", n, lie_arrays.point_jacobian(R, tip))[:, None, :]
+        return BatchTerms(r, D, A)

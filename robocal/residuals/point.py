@@ -8,7 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from robocal.residuals.base import Residual, Term, point_jacobian, vector_aux
+from robocal.model import lie_arrays
+from robocal.residuals.base import BatchTerms, Residual, Term, point_jacobian, vector_aux
 
 
 class PointResidual(Residual):
@@ -30,6 +31,10 @@ class PointResidual(Residual):
         M = states[i].pose(self.frame)
         r = M.act(aux[:3]) - self.measurements[k]
         return Term(r, [(i, self.frame, point_jacobian(M, aux[:3]))], M.rotation.copy())
+
+    def evaluate_batch(self, terms, R, p, aux):
+        r = lie_arrays.act(R, p, aux[:3]) - self.measurements[terms]
+        return BatchTerms(r, lie_arrays.point_jacobian(R, aux[:3]), R.copy())
 
     def simulate(self, k, states, aux, rng):
         return states[self.samples[k]].pose(self.frame).act(aux[:3]) + rng.normal(0.0, self.sigma)

@@ -9,7 +9,8 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from robocal.residuals.base import Residual, Term
+from robocal.model.lie_arrays import jlog3, log3, transpose
+from robocal.residuals.base import BatchTerms, Residual, Term
 
 
 class PoseResidual(Residual):
@@ -32,7 +33,7 @@ class PoseResidual(Residual):
     def set_measurements(self, m: np.ndarray) -> None:
         q = m[:, 3:7] / np.linalg.norm(m[:, 3:7], axis=1, keepdims=True)
         self.measurements = np.hstack([m[:, :3], q])
-        self._R = [pin.Quaternion(qw, qx, qy, qz).toRotationMatrix() for qx, qy, qz, qw in q]
+        self._R = quaternion_matrices(q)
 
     def evaluate(self, k, states, aux):
         s = states[self.samples[k]]
@@ -45,6 +46,15 @@ class PoseResidual(Residual):
         D[3:, 3:] = pin.Jlog3(E) @ Rm
         return Term(r, [(int(self.samples[k]), self.frame, D)])
 
+    def evaluate_batch(self, terms, R, p, aux):
+        Rm = self._R[terms]
+        w, theta = log3(R @ transpose(Rm))
+        r = np.concatenate([p - self.measurements[terms, :3], w], axis=1)
+        D = np.zeros((len(r), 6, 6))
+        D[:, :3, :3] = R
+        D[:, 3:, 3:] = jlog3(w, theta) @ Rm
+        return BatchTerms(r, D)
+
     def simulate(self, k, states, aux, rng):
         M = states[self.samples[k]].pose(self.frame)
         p = M.translation + rng.normal(0.0, self.sigma[:3])
@@ -56,3 +66,13 @@ class PoseResidual(Residual):
 def pose_row(M: pin.SE3) -> np.ndarray:
     """x y z qx qy qz qw of a pose."""
     return np.concatenate([M.translation, pin.Quaternion(M.rotation).coeffs()])
+
+
+def quaternion_matrices(q: np.ndarray) -> np.ndarray:
+    """(n, 3, 3) rotation matrices of unit quaternions (n, 4), x y z w (Pinocchio's toRotationMatrix)."""
+    x, y, z, w = q.T
+    out = np.empty((len(q), 3, 3))
+    out[:, 0, 0], out[:, 0, 1], out[:, 0, 2] = 1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)
+    out[:, 1, 0], out[:, 1, 1], out[:, 1, 2] = 2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)
+    out[:, 2, 0], out[:, 2, 1], out[:, 2, 2] = 2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)
+    return out

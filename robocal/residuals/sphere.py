@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from robocal.residuals.base import Aux, Residual, Term, point_jacobian, vector_aux
+from robocal.residuals.base import Aux, Residual, Term, distance_terms, point_jacobian, vector_aux
 
 
 class SphereResidual(Residual):
@@ -35,3 +35,6 @@ class SphereResidual(Residual):
         r = np.array([dist - aux[3] - self.tip_radius])
         A = np.concatenate([-e, [-1.0], e @ M.rotation])[None, :]
         return Term(r, [(i, self.frame, (e @ point_jacobian(M, p))[None, :])], A)
+
+    def evaluate_batch(self, terms, R, p, aux):
+        return distance_terms(R, p, aux, self.tip_radius)

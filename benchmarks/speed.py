@@ -1,0 +1,172 @@
+"""Speed of the residual-and-Jacobian pass against Pinocchio's floor, and fit times, measured in one run.
+
+Run: OMP_NUM_THREADS=1 python benchmarks/speed.py [--baseline DIR]
+
+Table 1, UR5 full calibration (joint offsets and placements, tool, base; 6D poses): microseconds per pose of
+- Pinocchio's floor in this process: computeJointJacobians + updateFramePlacement + getFrameJacobian, and
+  forwardKinematics + computeFrameKinematicRegressor (what the batched pass calls per pose);
+- one residual-and-Jacobian pass, per-sample reference (tests/reference_evaluation.py) and batched
+  (Problem.evaluate). A joint placement moves by 1e-9 rad before every pass, as in a fit, so nothing
+  kept from the previous pass applies.
+Table 2, calibrate() wall time: batched vs the reference evaluation (with today's solver), and with
+--baseline DIR the same fit run by another robocal tree (e.g. `git archive <commit> robocal | tar -x -C DIR`)
+in a subprocess. Table 3: TIAGo (examples/tiago_mocap/full_bl.yaml) calibrate() and the command line.
+FIGAROH is not timed here: installing it into its own virtual environment is not implemented yet.
+Each figure is the median of 3 runs; the machine may be shared, so compare ratios within the run.
+"""
+import argparse
+import os
+import subprocess
+import sys
+import time
+
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(HERE)
+sys.path.insert(0, os.path.join(ROOT, "tests"))
+sys.path.insert(0, os.environ.get("ROBOCAL_BENCH_TREE", ROOT))     # --baseline runs another tree's robocal
+import numpy as np  # noqa: E402
+import pinocchio as pin  # noqa: E402
+
+from reference_evaluation import reference_evaluate  # noqa: E402
+from synthetic_cases import ur5_pose_problem  # noqa: E402
+from robocal.design.simulate import perturb, simulate_measurements  # noqa: E402
+from robocal.estimation.calibrate import calibrate  # noqa: E402
+from robocal.io.config import load_config  # noqa: E402
+
+REPEATS = 3
+SIZES = (100, 1000, 10000)
+TIAGO = os.path.join(ROOT, "examples", "tiago_mocap", "full_bl.yaml")
+
+
+def median_time(f, repeats=REPEATS):
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        f()
+        times.append(time.perf_counter() - t0)
+    return float(np.median(times))
+
+
+def ur5_problem(n, seed=0):
+    rng = np.random.default_rng(seed)
+    problem = ur5_pose_problem(rng, n)
+    simulate_measurements(problem, perturb(problem.params, rng), rng)
+    problem.params = problem.params.copy()
+    return problem
+
+
+def pass_costs(problem):
+    """Per-pose microseconds at the problem's readings, one of each per call, in this order: Pinocchio's
+    FK + frame Jacobian, FK + frame kinematic regressor, the reference pass and the batched pass."""
+    model = problem.robot.model
+    data = model.createData()
+    fid = problem.robot.frame_id("tool0")
+    Q = np.array([problem.robot.configuration(problem.joint_names, v) for v in problem.values])
+    local = pin.ReferenceFrame.LOCAL
+    moved = problem.params["elbow_joint.rx"]
+
+    def jacobian():
+        for q in Q:
+            pin.computeJointJacobians(model, data, q)
+            pin.updateFramePlacement(model, data, fid)
+            pin.getFrameJacobian(model, data, fid, local)
+
+    def regressor():
+        for q in Q:
+            pin.forwardKinematics(model, data, q)
+            pin.computeFrameKinematicRegressor(model, data, fid, local)
+
+    def reference():
+        moved.value += 1e-9
+        reference_evaluate(problem)
+
+    def batched():
+        moved.value += 1e-9
+        problem.evaluate()
+    return [1e6 * median_time(f, 1) / len(Q) for f in (jacobian, regressor, reference, batched)]
+
+
+def fit_time(n, reference=False):
+    """calibrate() seconds on a fresh UR5 problem of n poses (batched, or the reference evaluation)."""
+    problem = ur5_problem(n)
+    if reference:
+        problem.evaluate = lambda jacobian=True, pb=problem: reference_evaluate(pb, jacobian)
+    t0 = time.perf_counter()
+    result = calibrate(problem)
+    seconds = time.perf_counter() - t0
+    assert result.solve.success
+    return seconds
+
+
+def baseline_fit_time(tree, n):
+    env = dict(os.environ, ROBOCAL_BENCH_TREE=os.path.abspath(tree))
+    run = subprocess.run([sys.executable, __file__, "--fit-only", str(n)], env=env, capture_output=True, text=True,
+                         check=True)
+    return float(run.stdout.strip().splitlines()[-1])
+
+
+def fit_times(baseline):
+    """{n: (batched, reference, baseline or None)} median seconds; the variants alternate within each repeat
+    so that a change in the machine's load hits all of them alike."""
+    out = {}
+    for n in SIZES:
+        runs = [(fit_time(n), fit_time(n, reference=True), baseline_fit_time(baseline, n) if baseline else np.nan)
+                for _ in range(REPEATS)]
+        out[n] = np.median(np.array(runs), axis=0)
+    return out
+
+
+def tiago_fit(reference):
+    setup = load_config(TIAGO)
+    problem = setup.problem
+    if reference:
+        problem.evaluate = lambda jacobian=True, pb=problem: reference_evaluate(pb, jacobian)
+    t0 = time.perf_counter()
+    calibrate(problem, setup.options)
+    return time.perf_counter() - t0
+
+
+def tiago_times():
+    """Median seconds: calibrate() batched, with the reference evaluation, and the command line end to end."""
+    out = os.path.join("/tmp", f"robocal_speed_{os.getpid()}")
+    cmd = [sys.executable, "-c", "import sys; sys.path.insert(0, sys.argv[1]); from robocal.cli.main import main; "
+           "sys.exit(main(sys.argv[2:]))", ROOT, "calibrate", TIAGO, "-o", out, "--force", "--no-report", "-q"]
+    runs = [(tiago_fit(False), tiago_fit(True), median_time(lambda: subprocess.run(cmd, check=True,
+                                                                                    capture_output=True), 1))
+            for _ in range(REPEATS)]
+    return np.median(np.array(runs), axis=0)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--baseline", help="a robocal tree whose calibrate() is timed on the same UR5 fits")
+    ap.add_argument("--fit-only", type=int, help=argparse.SUPPRESS)
+    args = ap.parse_args()
+    if args.fit_only is not None:      # the --baseline subprocess: only what an older tree also has
+        print(fit_time(args.fit_only))
+        return
+    print("UR5 residual-and-Jacobian pass, us per pose (median of 3)")
+    print(f"{'poses':>7} {'FK+Jac':>8} {'FK+reg':>8} {'reference':>10} {'batched':>9} {'batched/FK+Jac':>15} "
+          f"{'reference/batched':>18}")
+    for n in SIZES:
+        problem = ur5_problem(n)
+        f_jac, f_reg, ref, new = np.median([pass_costs(problem) for _ in range(REPEATS)], axis=0)
+        print(f"{n:>7} {f_jac:>8.2f} {f_reg:>8.2f} {ref:>10.2f} {new:>9.2f} {new / f_jac:>15.2f} {ref / new:>18.1f}")
+    print("\nUR5 calibrate() wall time, ms (median of 3)")
+    fits = fit_times(args.baseline)
+    print(f"{'poses':>7} {'batched':>9} {'reference':>10} {'ref/batched':>12}"
+          + (f" {'baseline':>9} {'baseline/batched':>17}" if args.baseline else ""))
+    for n, (new, ref, base) in fits.items():
+        line = f"{n:>7} {1e3 * new:>9.1f} {1e3 * ref:>10.1f} {ref / new:>12.1f}"
+        if args.baseline:
+            line += f" {1e3 * base:>9.1f} {base / new:>17.1f}"
+        print(line)
+    new, ref, cli = tiago_times()
+    print(f"\nTIAGo full_bl (median of 3): calibrate() batched {1e3 * new:.1f} ms, reference {1e3 * ref:.1f} ms; "
+          f"`robocal calibrate --no-report` end to end {1e3 * cli:.0f} ms")
+    print("FIGAROH comparison: not implemented in this script (see the module doc)")
+
+
+if __name__ == "__main__":
+    main()

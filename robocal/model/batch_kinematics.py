@@ -1,0 +1,201 @@
+"""Frame poses and parameter Jacobians of every sample at once, for serial (tree) robots.
+
+The per-sample path (robocal.model.kinematics.SampleState) answers one sample and one frame at a time
+through Python objects; here the only per-sample work is Pinocchio's: forward kinematics and the frame's
+kinematic regressor. Everything else is whole-array numpy over the samples:
+
+- the regressor's LOCAL block of joint j is Ad(X_j), X_j = oMf^-1 oMi[parent(j)] jointPlacement(j)
+  (see the Pinocchio notes, section 2), so it already holds the frame relative to every supporting joint;
+- the LOCAL frame Jacobian's column of a one-dof joint with a constant motion subspace S_j (revolute,
+  prismatic, continuous) is Ad(X_j) S_j, since exp(S_j q) leaves S_j unchanged;
+- the frame's pose is jointPlacement(j0) X_j0^-1 for the root-most supporting joint j0 (its parent is
+  the universe, at the identity).
+
+The parameter Jacobian then follows SampleState's formula term by term (offsets, compliance, backlash,
+placements through the regressor, frame and base placements). Robots with loops, tilt parameters or other
+joint kinds keep the per-sample path (`supports_batch`).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+
+from robocal.model.lie_arrays import adjoint_inverse, transpose
+from robocal.model.robot import ConfigurationMap
+
+LOCAL = pin.ReferenceFrame.LOCAL
+CONSTANT_SUBSPACE = {"JointModelRX", "JointModelRY", "JointModelRZ", "JointModelRevoluteUnaligned",
+                     "JointModelRUBX", "JointModelRUBY", "JointModelRUBZ", "JointModelRevoluteUnboundedUnaligned",
+                     "JointModelPX", "JointModelPY", "JointModelPZ", "JointModelPrismaticUnaligned"}
+
+
+def supports_batch(ms) -> bool:
+    """Whether a ModelState's samples can be evaluated here (serial, no tilts, plain one-dof joints)."""
+    if ms.loops is not None or ms.tilts is not None:
+        return False
+    return all(j.shortname() in CONSTANT_SUBSPACE for j in list(ms.kin_model.joints)[1:])
+
+
+@dataclass
+class FrameArrays:
+    """One frame at n samples: world pose (R, p) (measurement frame), pose on the robot (R0, p0) and the
+    (n, 6, n_free) LOCAL twist per free parameter (a work array: valid until the next `frame` call for the
+    same frame on the same problem)."""
+
+    R: np.ndarray
+    p: np.ndarray
+    R0: np.ndarray
+    p0: np.ndarray
+    jacobian: np.ndarray
+
+
+class SampleConstants:
+    """What does not change with the parameters, computed once per problem: each sample's gravity torque
+    at its readings (the compliance load) and the joints' motion subspaces."""
+
+    def __init__(self, robot, joint_names, values: np.ndarray, needs_gravity: bool, v_index: np.ndarray):
+        self.values = values.copy()
+        self.configurations = robot_configuration_map(robot, joint_names)
+        self.tau = None
+        if needs_gravity:
+            model = robot.model
+            data = model.createData()
+            self.tau = np.array([pin.computeGeneralizedGravity(model, data, q)[v_index]
+                                 for q in self.configurations(values)])
+        model = robot.model
+        data = model.createData()
+        pin.computeJointJacobians(model, data, pin.neutral(model))
+        self.subspace = np.zeros((model.nv, 6))      # row v: S of the joint owning velocity v (LOCAL)
+        for jid in range(1, model.njoints):
+            jm = model.joints[jid]
+            if jm.nv:
+                J = pin.getJointJacobian(model, data, jid, LOCAL)
+                self.subspace[jm.idx_v:jm.idx_v + jm.nv] = J[:, jm.idx_v:jm.idx_v + jm.nv].T
+        self.regressors: dict = {}                  # frame id -> (q, joint placements, regressors) of the last pass
+        self.buffers: dict = {}
+
+    def buffer(self, key, shape) -> np.ndarray:
+        """A work array kept between passes: writing into memory already mapped is several times faster
+        than into a fresh array (its pages fault in on first touch), which matters at 10^4 samples."""
+        b = self.buffers.get(key)
+        if b is None or b.shape != shape:
+            b = self.buffers[key] = np.empty(shape)
+        return b
+
+    def matches(self, values: np.ndarray) -> bool:
+        return self.values.shape == values.shape and np.array_equal(self.values, values)
+
+
+def robot_configuration_map(robot, joint_names):
+    """Readings (n, n_read) -> configurations (n, nq), with the robot's ConfigurationMap's index work."""
+    cmap = ConfigurationMap(robot, joint_names)
+
+    def configurations(values: np.ndarray) -> np.ndarray:
+        q = np.tile(cmap.q0, (len(values), 1))
+        q[:, cmap.plain_q] = values[:, cmap.plain_k]
+        if len(cmap.cont_k):
+            q[:, cmap.cont_q] = np.cos(values[:, cmap.cont_k])
+            q[:, cmap.cont_q + 1] = np.sin(values[:, cmap.cont_k])
+        return q
+    return configurations
+
+
+CACHE_BYTES = 64 * 2 ** 20     # regressors kept between passes (fits whose free parameters leave FK alone)
+
+
+class BatchKinematics:
+    """One ModelState evaluated at many samples; `frame(name, samples)` -> FrameArrays."""
+
+    def __init__(self, ms, constants: SampleConstants, values: np.ndarray, directions: np.ndarray | None):
+        self.ms, self.constants = ms, constants
+        self.model = ms.kin_model
+        self.data = self.model.createData()   # own Data: the per-sample path's cached state stays valid
+        link = values if directions is None else values + ms.backlash * directions
+        link = link + ms.offsets
+        if constants.tau is not None:
+            link = link - ms.compliance * constants.tau
+        self.q = constants.configurations(link)
+        self.directions = directions
+        self._twist_map = None
+
+    def regressors(self, fid: int, samples: np.ndarray) -> np.ndarray:
+        """(n, 6, 6 n_joints) LOCAL kinematic regressors of frame fid at the samples (cached while the
+        configurations and joint placements are unchanged)."""
+        q = self.q[samples]
+        # the regressor is the frame seen from each joint: it moves with the joints and with the frame
+        model = self.model
+        joints = model.supports[model.frames[fid].parentJoint]
+        placements = np.array([model.jointPlacements[j].homogeneous for j in joints[1:]]
+                              + [model.frames[fid].placement.homogeneous])
+        hit = self.constants.regressors.get(fid)
+        if (hit is not None and np.array_equal(hit[0], samples) and np.array_equal(hit[1], q)
+                and np.array_equal(hit[2], placements)):
+            return hit[3]
+        data = self.data
+        shape = (len(samples), 6, 6 * (model.njoints - 1))
+        out = hit[3] if hit is not None and hit[3].shape == shape else np.empty(shape)   # the old entry's memory
+        for row, qi in enumerate(q):
+            pin.forwardKinematics(model, data, qi)
+            out[row] = pin.computeFrameKinematicRegressor(model, data, fid, LOCAL)
+        if out.nbytes <= CACHE_BYTES:
+            self.constants.regressors[fid] = (samples.copy(), q, placements, out)
+        return out
+
+    def twist_map(self, ms) -> np.ndarray:
+        """(6 n_joints, n_free): d(placement twists)/d(free parameters), with each offset column written as
+        its joint's motion subspace S_j (a joint turning by dq moves the frame like a placement twist S_j dq)."""
+        if self._twist_map is None:
+            S = self.constants.subspace                       # (nv, 6); one-dof joints: v = joint - 1
+            offsets = (S[:, :, None] * ms.P_offset[:, None, :]).reshape(6 * len(S), ms.n_free)
+            self._twist_map = offsets + ms.P_joint if ms.has_joint_params else offsets
+        return self._twist_map
+
+    def frame(self, frame, samples) -> FrameArrays:
+        ms, model = self.ms, self.model
+        fid = frame if isinstance(frame, (int, np.integer)) else ms.robot.frame_id(frame)
+        samples = np.asarray(samples, dtype=int)
+        ordered = len(samples) < 2 or bool(np.all(samples[1:] > samples[:-1]))
+        unique, back = (samples, None) if ordered else np.unique(samples, return_inverse=True)
+        n, nj, nf = len(unique), model.njoints - 1, ms.n_free
+        parent = model.frames[fid].parentJoint
+        if parent == 0:      # fixed to the root: no joint moves it
+            reg = np.zeros((n, 6, 6 * nj))
+            R0 = np.broadcast_to(model.frames[fid].placement.rotation, (n, 3, 3))
+            p0 = np.broadcast_to(model.frames[fid].placement.translation, (n, 3))
+        else:
+            reg = self.regressors(fid, unique)
+            j0 = model.supports[parent][1]
+            block = reg[:, :, 6 * (j0 - 1):6 * j0]
+            RX = block[:, 3:, 3:]
+            pX_cross = block[:, :3, 3:] @ transpose(RX)
+            pX = np.stack([pX_cross[:, 2, 1], pX_cross[:, 0, 2], pX_cross[:, 1, 0]], axis=-1)
+            root = model.jointPlacements[j0]
+            R0 = root.rotation @ transpose(RX)
+            p0 = root.translation - np.einsum("nij,nj->ni", R0, pX)
+        # offsets act through the joints' columns Ad(X_j) S_j: folded into the placement map, one GEMM serves
+        # both (the (n*6, 6 n_joints) regressors times a (6 n_joints, n_free) map)
+        J = self.constants.buffer(("jacobian", fid), (n, 6, nf))
+        np.matmul(reg.reshape(6 * n, 6 * nj), self.twist_map(ms), out=J.reshape(6 * n, nf))
+        if ms.compliance_cols or ms.backlash_cols:
+            Jq = np.einsum("nijk,jk->nij", reg.reshape(n, 6, nj, 6), self.constants.subspace)   # (n, 6, nv)
+            tau = self.constants.tau
+            for k, iv, c, w in ms.compliance_cols:          # d q_link / d c = -tau_g
+                J[:, :, c] -= w * Jq[:, :, iv] * tau[unique, k][:, None]
+            for k, iv, c, w in ms.backlash_cols:            # d q_link / d b = d
+                J[:, :, c] += w * Jq[:, :, iv] * self.directions[unique, k][:, None]
+        if fid in ms.P_frame:
+            J += ms.P_frame[fid]
+        if ms.has_base_params:
+            cols = np.flatnonzero(np.any(ms.P_base != 0.0, axis=0))    # the base's own columns only
+            if cols[-1] - cols[0] + 1 == len(cols):
+                cols = slice(cols[0], cols[-1] + 1)
+            J[:, :, cols] += adjoint_inverse(R0, p0) @ ms.P_base[:, cols]
+        Rb, pb = ms.base.rotation, ms.base.translation
+        R = Rb @ R0
+        p = p0 @ Rb.T + pb
+        if back is None:
+            return FrameArrays(R, p, R0, p0, J)
+        return FrameArrays(R[back], p[back], R0[back], p0[back], J[back])
+

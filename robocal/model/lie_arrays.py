@@ -1,0 +1,95 @@
+"""SO(3)/SE(3) operations on stacks of matrices (n, 3, 3), as whole-array numpy.
+
+The batched residuals need Pinocchio's log3 and Jlog3 for thousands of rotations at once; calling
+`pin.log3` per sample costs more than the rest of the pass. These follow Pinocchio 4.1's own formulas
+(src/spatial/log.hxx: renormalise, acos of the trace, theta/sin(theta) with its Taylor branch) so the
+two agree to rounding; rotations within sqrt(eps) of a half turn, where Pinocchio switches to its
+singular branch, are handed to `pin.log3` itself, one by one (they are rare).
+"""
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+
+EPS = np.finfo(float).eps
+TAYLOR_2 = EPS ** (1.0 / 3.0)     # Pinocchio's TaylorSeriesExpansion precision<2>
+TAYLOR_3 = EPS ** (1.0 / 4.0)     # precision<3>
+
+
+def skew(v: np.ndarray) -> np.ndarray:
+    """(n, 3, 3) cross-product matrices of (n, 3) vectors."""
+    out = np.zeros(v.shape[:-1] + (3, 3))
+    out[..., 0, 1], out[..., 0, 2] = -v[..., 2], v[..., 1]
+    out[..., 1, 0], out[..., 1, 2] = v[..., 2], -v[..., 0]
+    out[..., 2, 0], out[..., 2, 1] = -v[..., 1], v[..., 0]
+    return out
+
+
+def transpose(R: np.ndarray) -> np.ndarray:
+    return np.swapaxes(R, -1, -2)
+
+
+def renormalise(R: np.ndarray) -> np.ndarray:
+    """Pinocchio's renormalize_rotation_matrix on a stack."""
+    c0 = R[..., :, 0] / np.linalg.norm(R[..., :, 0], axis=-1, keepdims=True)
+    c1 = R[..., :, 1] / np.linalg.norm(R[..., :, 1], axis=-1, keepdims=True)
+    c2 = np.cross(c0, c1)
+    c0 = np.cross(c1, c2)
+    return np.stack([c0, c1, c2], axis=-1)
+
+
+def log3(R: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(log (n, 3), theta (n,)) of a stack of rotations, as pin.log3."""
+    Rn = renormalise(R)
+    tr = np.trace(Rn, axis1=-2, axis2=-1)
+    cos_value = (tr - 1.0) / 2.0
+    expansion = np.sqrt(2.0 * (1.0 - cos_value) + EPS * EPS)
+    theta = np.where(tr <= 3.0 - TAYLOR_2, np.arccos(np.clip(cos_value, -1.0, 1.0)), expansion)
+    anti = 0.5 * np.stack([Rn[..., 2, 1] - Rn[..., 1, 2], Rn[..., 0, 2] - Rn[..., 2, 0],
+                           Rn[..., 1, 0] - Rn[..., 0, 1]], axis=-1)
+    a2 = np.einsum("...i,...i->...", anti, anti)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = theta / np.sin(theta)
+    t = np.where(theta >= TAYLOR_2, ratio, 1.0 + a2 / 6.0 + a2 * a2 * 3.0 / 40.0)
+    w = t[..., None] * anti
+    for i in np.flatnonzero(cos_value < -1.0 + TAYLOR_2):   # near a half turn: Pinocchio's singular branch
+        w[i] = pin.log3(np.ascontiguousarray(R[i]))
+        theta[i] = np.linalg.norm(w[i])
+    return w, theta
+
+
+def jlog3(w: np.ndarray, theta: np.ndarray) -> np.ndarray:
+    """(n, 3, 3) Jlog3 from log3's output, as pin.Jlog3."""
+    st, ct = np.sin(theta), np.cos(theta)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        st_1mct = st / (1.0 - ct)
+        alpha = np.where(theta < TAYLOR_3, 1.0 / 12.0 + theta * theta / 720.0,
+                         1.0 / (theta * theta) - st_1mct / (2.0 * theta))
+        diag = np.where(theta < TAYLOR_3, 0.5 * (2.0 - theta * theta / 6.0), 0.5 * (theta * st_1mct))
+    J = alpha[..., None, None] * (w[..., :, None] * w[..., None, :])
+    J[..., [0, 1, 2], [0, 1, 2]] += diag[..., None]
+    return J + skew(0.5 * w)
+
+
+def act(R: np.ndarray, p: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """(n, 3) points x (3,) or (n, 3) moved by the poses (R, p)."""
+    return np.einsum("nij,...j->ni", R, x) + p if x.ndim == 1 else np.einsum("nij,nj->ni", R, x) + p
+
+
+def point_jacobian(R: np.ndarray, x_local: np.ndarray) -> np.ndarray:
+    """(n, 3, 6) derivative of the world point M x_local w.r.t. a LOCAL right twist of each M."""
+    n = len(R)
+    out = np.empty((n, 3, 6))
+    out[:, :, :3] = R
+    out[:, :, 3:] = -R @ skew(np.broadcast_to(x_local, (n, 3)))
+    return out
+
+
+def adjoint_inverse(R: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """(n, 6, 6) action matrices of the inverses of the poses (R, p) (Pinocchio's twist order v, w)."""
+    Rt = transpose(R)
+    out = np.zeros(R.shape[:-2] + (6, 6))
+    out[..., :3, :3] = Rt
+    out[..., 3:, 3:] = Rt
+    out[..., :3, 3:] = -Rt @ skew(p)      # [-R^T p]x R^T = -R^T [p]x
+    return out
