@@ -35,11 +35,16 @@ DETERMINED_ANGLE = 1e-4     # rad: ... and one known to 0.1 mrad
 
 
 def measured_frames(problem) -> set[str]:
-    return {f for r in problem.residuals for f in [getattr(r, "frame", None)] if isinstance(f, str)}
+    """Frames measurements look at, and (as "param:<name>") residual unknowns that are machine geometry."""
+    frames = {f for r in problem.residuals for f in [getattr(r, "frame", None)] if isinstance(f, str)}
+    return frames | {f"param:{n}" for r in problem.residuals for n in r.machine_parameter_names()}
 
 
 def is_registration(p: Parameter, measured: set[str]) -> bool:
-    """Base, measurement set-up, or the placement of a frame a measurement looks at (the tool)."""
+    """Base, measurement set-up, or the placement of a frame a measurement looks at (the tool); not the
+    unknowns of a residual that models the machine itself (a parallel CMM's reduced error parameters)."""
+    if f"param:{p.name}" in measured:
+        return False
     return p.kind in REGISTRATION_KINDS or (p.kind == "frame_placement" and p.target in measured)
 
 

@@ -127,6 +127,11 @@ class Residual(ABC):
         return [Parameter(f"{self.name}.{a.suffix}", "auxiliary", self.name, i, value=a.value, vary=a.vary,
                           unit=a.unit) for i, a in enumerate(self.aux)]
 
+    def machine_parameter_names(self) -> list[str]:
+        """Unknowns of this residual that are the machine's geometry (a parallel CMM's error parameters), not a
+        measurement set-up: never fitted when the nominal model is registered for the "before" figures."""
+        return []
+
     def row_scale(self) -> np.ndarray:
         """Multiplier that turns a row of r into a unit-variance row (0 drops it)."""
         return self.weights / self.sigma

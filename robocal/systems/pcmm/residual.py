@@ -77,6 +77,9 @@ class PCMMArtefactResidual(SphereArtefactResidual):
     def aux_parameters(self) -> list[Parameter]:
         return super().aux_parameters() + machine_parameters()
 
+    def machine_parameter_names(self) -> list[str]:
+        return [p.name for p in machine_parameters()]     # the 32 reduced error parameters are the machine
+
     def machine(self, aux: np.ndarray) -> PCMMGeometry:
         return self.nominal.perturbed(np.asarray(aux)[self.n_certificate:])
 
