@@ -11,10 +11,10 @@ import sys
 
 import numpy as np
 
-from robocal.cli import calibrate, iso9283, plan, simulate, view
+from robocal.cli import calibrate, fleet, iso9283, plan, simulate, view
 from robocal.errors import RobocalError
 
-COMMANDS = (calibrate, simulate, plan, iso9283, view)
+COMMANDS = (calibrate, simulate, plan, iso9283, view, fleet)
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -7,6 +7,7 @@ serial loop as long as `fn` is deterministic in its item (a seed per item, never
 """
 from __future__ import annotations
 
+import logging
 import os
 from contextlib import contextmanager
 from typing import Callable, Iterable, Iterator
@@ -33,8 +34,9 @@ def dask_client(scheduler: str | None = None, workers: int | None = None):
             client.close()
         return
     n = workers or default_workers()
-    with LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
-                      env=WORKER_ENV) as cluster, Client(cluster) as client:
+    # dashboard on a free port (never a clash with another cluster); the cluster's own logs only from WARNING
+    with LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
+                      silence_logs=logging.WARNING, env=WORKER_ENV) as cluster, Client(cluster) as client:
         yield client
 
 

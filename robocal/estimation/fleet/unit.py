@@ -72,11 +72,11 @@ def _fit(setup: Setup, job: UnitJob) -> dict:
     ratio = float(np.sqrt(np.sum(result.solve.fun ** 2) / dof))   # residual / stated sigma
     status, message = result.status, ""
     if not result.solve.success:
-        message = f"not converged: {result.solve.message} after {result.solve.nit} iterations"
+        message = f"{result.solve.message} after {result.solve.nit} iterations"
     elif ratio > job.max_sigma_ratio:
         status = "diverged"
         rms = "; ".join(f"{b.name} " + ", ".join(f"{v:.4g} {k}" for k, v in b.rms.items()) for b in result.after)
-        message = (f"diverged: residual/sigma {ratio:.4g} exceeds accept.max_sigma_ratio {job.max_sigma_ratio:g} "
+        message = (f"residual/sigma {ratio:.4g} exceeds accept.max_sigma_ratio {job.max_sigma_ratio:g} "
                    f"(RMS after the fit: {rms}); the fitted model does not explain the data")
         setup.robot.urdf_text = None   # no calibrated URDF from a rejected fit (result.json still written)
     elif result.ill_conditioned:
