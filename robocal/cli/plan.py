@@ -7,7 +7,7 @@ from robocal.design.plan import plan_from_config, summary, write_plan
 
 
 def cmd_plan(args) -> int:
-    plan = plan_from_config(args.config, seed=args.seed)
+    plan = plan_from_config(args.config, seed=args.seed, scheduler=args.scheduler, workers=args.workers)
     files = write_plan(plan, args.output, force=args.force)
     print(summary(plan))
     print("\nWrote " + ", ".join(str(f) for f in files.values()))
@@ -24,5 +24,8 @@ def add_parser(subparsers):
     p.add_argument("-o", "--output", help="output folder (default: the config's plan.output.dir)")
     p.add_argument("--seed", type=int, default=None, help="override plan.seed")
     p.add_argument("--force", action="store_true", help="replace existing output")
+    p.add_argument("--workers", type=int, default=None, help="compute the accuracy curve on a local Dask cluster "
+                   "of this many workers (the [fleet] extra; docs/fleet.md)")
+    p.add_argument("--scheduler", default=None, help="compute the accuracy curve on this Dask scheduler")
     p.set_defaults(handler=cmd_plan)
     return p

@@ -22,6 +22,7 @@ joint units), prediction.json, accuracy_map.csv, accuracy_curve.csv, summary.txt
 from __future__ import annotations
 
 import copy
+import functools
 import json
 import tempfile
 from dataclasses import dataclass
@@ -37,6 +38,7 @@ from robocal.design.candidates import CandidateFilter, MeasurementVolume, filter
     random_candidates
 from robocal.design.criteria import CRITERIA
 from robocal.errors import InputError
+from robocal.estimation.fleet.engine import map_tasks
 from robocal.model.kinematics import ModelState
 from robocal.io.output import write_folder
 from robocal.model.parameters import ParameterSet
@@ -73,7 +75,10 @@ class Plan:
         return self.candidates[self.selection.labels]
 
 
-def plan_from_config(path: str | Path, seed: int | None = None) -> Plan:
+def plan_from_config(path: str | Path, seed: int | None = None, scheduler: str | None = None,
+                     workers: int | None = None) -> Plan:
+    """The plan of a config; the accuracy curve's points (independent selections, no random draws) are
+    computed on Dask when `scheduler` or `workers` is given (docs/fleet.md), identical to the serial run."""
     path = Path(path).resolve()
     raw = read_yaml(path)
     root = Cfg(raw, "", str(path))
@@ -136,7 +141,8 @@ def plan_from_config(path: str | Path, seed: int | None = None) -> Plan:
     accuracy = predict_pose_accuracy(params, G)
     counts = plan.get("curve", None, types=list) or _default_counts(design, n)
     counts = [int(c) for c in counts if 1 <= int(c) <= design.n_candidates]
-    curve = accuracy_curve(design, counts, G, criterion, W=W)
+    curve_of = functools.partial(accuracy_curve, design, G=G, criterion=criterion, W=W)
+    curve = [c for one in map_tasks(curve_of, [[n] for n in counts], scheduler, workers) for c in one]
     out = plan.child("output", {})
     out.check_keys(("dir",))
     jn = (raw.get("data") or {}).get("joint_units") or {}

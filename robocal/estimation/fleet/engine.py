@@ -13,6 +13,8 @@ from contextlib import contextmanager
 from typing import Callable, Iterable, Iterator
 
 #: set in every LocalCluster worker: one BLAS thread per single-threaded worker process
+#: times a finished task's lost result is awaited again (its worker died before the result was fetched)
+MAX_RESULT_WAITS = 3
 WORKER_ENV = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
 
 
@@ -48,14 +50,23 @@ def completed(client, fn: Callable, items: list) -> Iterator[tuple[int, object, 
 
     futures = [client.submit(fn, item, pure=False) for item in items]
     index = {f.key: i for i, f in enumerate(futures)}
-    for future in as_completed(futures):
+    waits = dict.fromkeys(index, 0)
+    pending = as_completed(futures)
+    for future in pending:
         i = index[future.key]
         try:
-            yield i, future.result(), None
-        except Exception as exc:   # the task's own error or a lost task: the caller records it
-            yield i, None, exc
-        finally:
-            future.release()
+            result = future.result()
+        except Exception as exc:
+            # A result that lived on a worker which died before it was fetched is computed again by
+            # Dask (the future is no longer 'error'): wait for that instead of reporting a loss.
+            if future.status != "error" and waits[future.key] < MAX_RESULT_WAITS:
+                waits[future.key] += 1
+                pending.add(future)
+                continue
+            yield i, None, exc   # the task's own error, or lost for good (KilledWorker): the caller records it
+        else:
+            yield i, result, None
+        future.release()
 
 
 def map_tasks(fn: Callable, items: Iterable, scheduler: str | None = None, workers: int | None = None) -> list:
