@@ -120,3 +120,19 @@ def test_killing_a_worker_during_a_run_loses_no_unit(cluster, fleet):
     assert len(rows) == N_UNITS and len({r["key"] for r in rows}) == N_UNITS
     assert sum(r["status"] == "converged" for r in rows) == N_UNITS - 2
     shutil.rmtree(fleet.fleet_yaml.parent / "fleet-output-kill")
+
+
+def test_plan_curve_on_the_cluster_equals_the_serial_run(cluster, tmp_path):
+    from robocal.design.plan import plan_from_config, prediction_dict
+
+    config = {"robot": {"example": "ur5"}, "data": {"csv": "not_measured_yet.csv"},
+              "parameters": {"preset": "full", "frames": {"tool0": True}, "base": True},
+              "measurements": [{"type": "pose", "name": "tracker", "frame": "tool0",
+                                "columns": ["x", "y", "z", "qx", "qy", "qz", "qw"]}],
+              "plan": {"N": 12, "seed": 4, "candidates": {"count": 80}, "validation": 20, "curve": [8, 12, 16, 24]}}
+    path = tmp_path / "plan.yaml"
+    path.write_text(yaml.safe_dump(config))
+    serial = prediction_dict(plan_from_config(path))
+    spread = prediction_dict(plan_from_config(path, scheduler=cluster[0].scheduler_address))
+    assert [c["n_poses"] for c in spread["curve"]] == [8, 12, 16, 24]
+    assert spread == serial      # bit for bit: each curve point is a deterministic task
