@@ -99,8 +99,10 @@ def test_a_rerun_does_no_work(first_run, fleet, monkeypatch):
     assert first_run.table_path.read_bytes() == before
 
 
-def test_killing_a_worker_during_a_run_loses_no_unit(cluster, fleet):
+def test_killing_a_worker_during_a_run_loses_no_unit(cluster, fleet, monkeypatch):
     cl, client = cluster
+    monkeypatch.setattr(runner, "FLUSH_SECONDS", 0.0)    # write the table after every unit
+    seen = []
     raw = yaml.safe_load(fleet.fleet_yaml.read_text())
     raw["output"] = {"dir": "fleet-output-kill", "table": "fleet.parquet"}
     second = fleet.fleet_yaml.with_name("fleet_kill.yaml")
@@ -108,6 +110,7 @@ def test_killing_a_worker_during_a_run_loses_no_unit(cluster, fleet):
     killed = []
 
     def kill_one_worker(done, total, row):
+        seen.append((done, len(read_table(second.parent / "fleet-output-kill" / "fleet.parquet"))))
         if not killed:
             pids = client.run(os.getpid)          # {worker address: pid}
             victim = sorted(pids)[0]
@@ -116,6 +119,7 @@ def test_killing_a_worker_during_a_run_loses_no_unit(cluster, fleet):
 
     run = runner.run_fleet(second, scheduler=cl.scheduler_address, progress=kill_one_worker)
     assert killed and run.calibrated == N_UNITS
+    assert all(done == in_table for done, in_table in seen)   # rows streamed to the table as units finish
     rows = read_table(run.table_path)
     assert len(rows) == N_UNITS and len({r["key"] for r in rows}) == N_UNITS
     assert sum(r["status"] == "converged" for r in rows) == N_UNITS - 2

@@ -2,13 +2,15 @@
 
 Units whose inputs and config hashes already have a final row are skipped (a re-run after a crash
 or a killed worker does only what is left). Every other unit is submitted at once; each finished
-unit's row is put into the table, which is rewritten atomically, so a crash loses no finished unit.
+unit's row is put into the table, which is rewritten atomically every FLUSH_SECONDS and at the end
+(also on an interrupt), so a crash loses at most the last second's units, which a re-run redoes.
 A worker that dies takes its running task with it: Dask runs that task again on another worker, and
 only a task that kills its workers repeatedly comes back as a 'lost' row.
 """
 from __future__ import annotations
 
 import logging
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
@@ -19,6 +21,8 @@ from robocal.estimation.fleet.table import FleetTable
 from robocal.estimation.fleet.unit import FINAL_STATUSES, LOST, calibrate_unit
 
 log = logging.getLogger(__name__)
+#: the table is rewritten at most this often (s) while units finish, and once at the end
+FLUSH_SECONDS = 1.0
 
 
 @dataclass
@@ -48,15 +52,21 @@ def run_fleet(fleet: str | Path | FleetSpec, scheduler: str | None = None, worke
     log.info("%d units, %d already in %s, %d to calibrate", run.units, run.skipped, spec.table_path, len(todo))
     if not todo:
         return run
+    last_write = time.monotonic()
     with dask_client(scheduler, workers) as client:
-        for i, row, exc in completed(client, calibrate_unit, todo):
-            row = lost_row(todo[i], exc) if exc is not None else row
-            table.put(row)
+        try:
+            for i, row, exc in completed(client, calibrate_unit, todo):
+                row = lost_row(todo[i], exc) if exc is not None else row
+                table.put(row)
+                if time.monotonic() - last_write >= FLUSH_SECONDS:
+                    table.write()
+                    last_write = time.monotonic()
+                run.calibrated += 1
+                run.statuses[row["status"]] = run.statuses.get(row["status"], 0) + 1
+                if row["status"] != "converged":
+                    run.failures.append(row)
+                if progress:
+                    progress(run.calibrated, len(todo), row)
+        finally:   # also on an interrupt: every unit finished so far is kept
             table.write()
-            run.calibrated += 1
-            run.statuses[row["status"]] = run.statuses.get(row["status"], 0) + 1
-            if row["status"] != "converged":
-                run.failures.append(row)
-            if progress:
-                progress(run.calibrated, len(todo), row)
     return run

@@ -1,0 +1,67 @@
+"""Benchmark: a fleet of 200 simulated UR5 units (30 tracker poses each) calibrated on Dask with 1
+and 2 worker processes, against the same fits one by one in this process (the baseline, same run).
+
+    OMP_NUM_THREADS=1 python benchmarks/fleet.py [--units 200] [--samples 30]
+
+Each line times a fresh output folder (nothing resumed). Fleet runs include starting the
+LocalCluster (measured alone on the last line). Paste the table into docs/fleet.md.
+"""
+import argparse
+import os
+import tempfile
+import time
+from pathlib import Path
+
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+import yaml  # noqa: E402
+
+from robocal.estimation.fleet.engine import dask_client  # noqa: E402
+from robocal.estimation.fleet.manifest import load_fleet  # noqa: E402
+from robocal.estimation.fleet.runner import run_fleet  # noqa: E402
+from robocal.estimation.fleet.synthetic import simulated_fleet  # noqa: E402
+from robocal.estimation.fleet.unit import calibrate_unit  # noqa: E402
+
+
+def fleet_copy(fleet_yaml: Path, out: str) -> Path:
+    """The same fleet writing to its own output folder."""
+    raw = yaml.safe_load(fleet_yaml.read_text())
+    raw["output"] = {"dir": out, "table": "fleet.parquet"}
+    path = fleet_yaml.with_name(f"fleet_{out}.yaml")
+    path.write_text(yaml.safe_dump(raw))
+    return path
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--units", type=int, default=200)
+    ap.add_argument("--samples", type=int, default=30)
+    args = ap.parse_args()
+    with tempfile.TemporaryDirectory() as tmp:
+        t0 = time.perf_counter()
+        fleet = simulated_fleet(tmp, args.units, samples=args.samples, seed=7)
+        print(f"simulated {args.units} units of {args.samples} poses in {time.perf_counter() - t0:.1f} s "
+              f"(os.cpu_count() = {os.cpu_count()})\n")
+        rows = []
+        spec = load_fleet(fleet_copy(fleet.fleet_yaml, "serial"))
+        t0 = time.perf_counter()
+        statuses = [calibrate_unit(job)["status"] for job in spec.jobs]
+        serial = time.perf_counter() - t0
+        rows.append(("one by one, this process", serial, statuses.count("converged")))
+        for workers in (1, 2):
+            t0 = time.perf_counter()
+            run = run_fleet(fleet_copy(fleet.fleet_yaml, f"w{workers}"), workers=workers)
+            rows.append((f"fleet run, {workers} worker{'s' * (workers > 1)}", time.perf_counter() - t0,
+                         run.statuses.get("converged", 0)))
+        t0 = time.perf_counter()
+        with dask_client(workers=2):
+            pass
+        start = time.perf_counter() - t0
+    print(f"{'how':<28}{'units':>6}{'converged':>11}{'wall s':>9}{'ms / unit':>11}{'vs one by one':>15}")
+    for how, wall, ok in rows:
+        print(f"{how:<28}{args.units:>6}{ok:>11}{wall:>9.2f}{1e3 * wall / args.units:>11.1f}{serial / wall:>14.2f}x")
+    print(f"{'start + stop a 2-worker LocalCluster':<54}{start:>9.2f}")
+
+
+if __name__ == "__main__":
+    main()
