@@ -20,6 +20,7 @@ from robocal.estimation.fleet.engine import dask_client  # noqa: E402
 from robocal.estimation.fleet.manifest import load_fleet  # noqa: E402
 from robocal.estimation.fleet.runner import run_fleet  # noqa: E402
 from robocal.estimation.fleet.synthetic import simulated_fleet  # noqa: E402
+from robocal.estimation.fleet.table import read_table  # noqa: E402
 from robocal.estimation.fleet.unit import calibrate_unit  # noqa: E402
 
 
@@ -37,6 +38,7 @@ def main():
     ap.add_argument("--units", type=int, default=200)
     ap.add_argument("--samples", type=int, default=30)
     args = ap.parse_args()
+    load = os.getloadavg()
     with tempfile.TemporaryDirectory() as tmp:
         t0 = time.perf_counter()
         fleet = simulated_fleet(tmp, args.units, samples=args.samples, seed=7)
@@ -45,22 +47,29 @@ def main():
         rows = []
         spec = load_fleet(fleet_copy(fleet.fleet_yaml, "serial"))
         t0 = time.perf_counter()
-        statuses = [calibrate_unit(job)["status"] for job in spec.jobs]
+        done = [calibrate_unit(job) for job in spec.jobs]
         serial = time.perf_counter() - t0
-        rows.append(("one by one, this process", serial, statuses.count("converged")))
+        rows.append(("one by one, this process", serial, sum(r["status"] == "converged" for r in done),
+                     sum(r["elapsed_s"] for r in done) / len(done)))
         for workers in (1, 2):
             t0 = time.perf_counter()
             run = run_fleet(fleet_copy(fleet.fleet_yaml, f"w{workers}"), workers=workers)
-            rows.append((f"fleet run, {workers} worker{'s' * (workers > 1)}", time.perf_counter() - t0,
-                         run.statuses.get("converged", 0)))
+            wall = time.perf_counter() - t0
+            done = read_table(run.table_path)
+            rows.append((f"fleet run, {workers} worker{'s' * (workers > 1)}", wall, run.statuses.get("converged", 0),
+                         sum(r["elapsed_s"] for r in done) / len(done)))
         t0 = time.perf_counter()
         with dask_client(workers=2):
             pass
         start = time.perf_counter() - t0
-    print(f"{'how':<28}{'units':>6}{'converged':>11}{'wall s':>9}{'ms / unit':>11}{'vs one by one':>15}")
-    for how, wall, ok in rows:
-        print(f"{how:<28}{args.units:>6}{ok:>11}{wall:>9.2f}{1e3 * wall / args.units:>11.1f}{serial / wall:>14.2f}x")
+    print(f"{'how':<28}{'units':>6}{'converged':>11}{'wall s':>9}{'wall ms / unit':>16}{'fit ms / unit':>15}"
+          f"{'vs one by one':>15}")
+    for how, wall, ok, fit in rows:
+        print(f"{how:<28}{args.units:>6}{ok:>11}{wall:>9.2f}{1e3 * wall / args.units:>16.1f}{1e3 * fit:>15.1f}"
+              f"{serial / wall:>14.2f}x")
     print(f"{'start + stop a 2-worker LocalCluster':<54}{start:>9.2f}")
+    print("\nfit ms / unit: one unit's calibrate_unit (set-up, fit, output folder) as timed where it ran;\n"
+          f"load average (1 min) before / after: {load[0]:.1f} / {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
 
 
 if __name__ == "__main__":
