@@ -140,3 +140,15 @@ def test_plan_curve_on_the_cluster_equals_the_serial_run(cluster, tmp_path):
     spread = prediction_dict(plan_from_config(path, scheduler=cluster[0].scheduler_address))
     assert [c["n_poses"] for c in spread["curve"]] == [8, 12, 16, 24]
     assert spread == serial      # bit for bit: each curve point is a deterministic task
+
+
+def test_fleet_run_command_on_its_own_local_cluster(tmp_path, capsys):
+    from robocal.cli.main import main
+
+    small = simulated_fleet(tmp_path, 3, samples=30, seed=2, broken=(1,))
+    assert main(["fleet", "run", str(small.fleet_yaml), "--workers", "1", "-q"]) == 3   # 3: a unit failed
+    out = capsys.readouterr().out
+    assert "3 units: 0 already in the table, 3 calibrated (2 converged, 1 input error)" in out
+    assert "U001_2026-01-15: input error:" in out and "U001.csv, row 8, field 'x'" in out
+    assert main(["fleet", "run", str(small.fleet_yaml), "-q"]) == 0
+    assert "3 units: 3 already in the table, 0 calibrated" in capsys.readouterr().out

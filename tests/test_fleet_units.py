@@ -10,7 +10,7 @@ from robocal.estimation.fleet.engine import map_tasks  # noqa: E402
 from robocal.estimation.fleet.manifest import load_fleet  # noqa: E402
 from robocal.estimation.fleet.report import fleet_report, summary_lines  # noqa: E402
 from robocal.estimation.fleet.table import FleetTable, read_table, write_table  # noqa: E402
-from robocal.estimation.fleet.unit import FINAL_STATUSES, calibrate_unit  # noqa: E402
+from robocal.estimation.fleet.unit import FINAL_STATUSES, calibrate_unit, unit_config  # noqa: E402
 
 
 def write_fleet(tmp_path, manifest: str, **extra):
@@ -124,3 +124,38 @@ def test_fleet_page(tmp_path):
     page = fleet_page(fleet_report(rows))
     assert page.startswith("<!DOCTYPE html>") and page.count("data:image/png;base64,") == 2
     assert '<table class="outliers">' in page and "<td>U4</td>" in page and '<table class="drift">' in page
+
+
+def test_glob_units_and_per_unit_files(tmp_path):
+    (tmp_path / "data").mkdir()
+    for name in ("B", "A"):
+        (tmp_path / "data" / f"{name}.csv").write_text("x\n")
+    path = write_fleet(tmp_path, "")
+    raw = yaml.safe_load(path.read_text())
+    path.write_text(yaml.safe_dump({**raw, "units": {"glob": "data/*.csv"}}))
+    jobs = load_fleet(path).jobs
+    assert [j.key for j in jobs] == ["A", "B"] and jobs[0].data[""] == str(tmp_path / "data" / "A.csv")
+    # a manifest row with its own URDF and a second data file for blocks that read `csv: plane.csv`
+    (tmp_path / "units.csv").write_text("unit,data,data:plane.csv,urdf,date\nC,c.csv,c_plane.csv,c.urdf,2026-02-03\n")
+    path.write_text(yaml.safe_dump(raw))
+    job = load_fleet(path).jobs[0]
+    job.raw["measurements"].append({"type": "plane", "frame": "tool0", "csv": "plane.csv"})
+    cfg = unit_config(job)
+    assert cfg["data"]["csv"] == str(tmp_path / "c.csv") and cfg["measurements"][1]["csv"] == str(tmp_path / "c_plane.csv")
+    assert cfg["robot"] == {"urdf": str(tmp_path / "c.urdf")} and job.key == "C_2026-02-03"
+    assert cfg["output"]["dir"] == str(tmp_path / "fleet-output" / "units" / "C_2026-02-03")
+
+
+def test_fleet_report_command(tmp_path, capsys):
+    pytest.importorskip("matplotlib")
+    from robocal.cli.main import main
+
+    rows = fleet_rows(np.random.default_rng(5))
+    rows[4]["est:q"] = 0.012
+    table = write_table(tmp_path / "fleet.parquet", rows)
+    assert main(["fleet", "report", str(table)]) == 0
+    out = capsys.readouterr().out
+    assert "30 calibrations: 30 converged" in out and "OUTLIER U4: q" in out
+    assert (tmp_path / "fleet.html").read_text().startswith("<!DOCTYPE html>")
+    assert main(["fleet", "report", str(tmp_path / "none.parquet")]) == 2
+    assert "none.parquet: fleet table not found" in capsys.readouterr().err
