@@ -23,6 +23,7 @@ def parameter_spread(names, z, flagged, threshold, path, title="Every parameter 
     for t in (-threshold, threshold):
         ax.axhline(t, color="0.5", ls="--", lw=1)
     ax.set_xticks(range(len(names)), names, rotation=90, fontsize=7)
+    ax.set_yscale("symlog", linthresh=threshold)   # linear inside the threshold, far outliers still on the page
     ax.set_ylabel("(estimate - fleet median) / robust sd")
     ax.set_title(title)
     ax.legend(loc="upper right", fontsize=8)
