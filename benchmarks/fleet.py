@@ -4,12 +4,15 @@ and 2 worker processes, against the same fits one by one in this process (the ba
     OMP_NUM_THREADS=1 python benchmarks/fleet.py [--units 200] [--samples 30]
 
 Each line times a fresh output folder (nothing resumed). Fleet runs include starting the
-LocalCluster (measured alone on the last line). Paste the table into docs/fleet.md.
+LocalCluster (measured alone on the last line). A control splits the units over 2 plain processes
+(multiprocessing, started before the clock): the scaling the machine itself allows. Paste the table
+into docs/fleet.md.
 """
 import argparse
 import os
 import tempfile
 import time
+from multiprocessing import get_context
 from pathlib import Path
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
@@ -31,6 +34,10 @@ def fleet_copy(fleet_yaml: Path, out: str) -> Path:
     path = fleet_yaml.with_name(f"fleet_{out}.yaml")
     path.write_text(yaml.safe_dump(raw))
     return path
+
+
+def calibrate_all(jobs) -> list[dict]:
+    return [calibrate_unit(job) for job in jobs]
 
 
 def keep(best: dict, how: str, wall: float, done: list[dict]) -> None:
@@ -60,6 +67,13 @@ def main():
             t0 = time.perf_counter()
             done = [calibrate_unit(job) for job in spec.jobs]
             keep(best, "one by one, this process", time.perf_counter() - t0, done)
+            # control: the same split over 2 plain processes (no Dask), the scaling this machine allows
+            halves = [spec.jobs[0::2], spec.jobs[1::2]]
+            with get_context("spawn").Pool(2) as pool:
+                pool.map(calibrate_all, [h[:2] for h in halves])     # start-up and imports not timed
+                t0 = time.perf_counter()
+                done = [r for part in pool.map(calibrate_all, halves) for r in part]
+            keep(best, "2 plain processes, no Dask", time.perf_counter() - t0, done)
             for workers in (1, 2):
                 t0 = time.perf_counter()
                 run = run_fleet(fleet_copy(fleet.fleet_yaml, f"w{workers}_{rep}"), workers=workers)
