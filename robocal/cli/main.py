@@ -11,11 +11,11 @@ import sys
 
 import numpy as np
 
-from robocal.cli import calibrate, cv, evaluate, identify, iso9283, plan, select, simulate, view
+from robocal.cli import calibrate, cv, evaluate, fleet, identify, iso9283, plan, select, simulate, view
 from robocal.errors import RobocalError
 from robocal.io.output import robocal_version
 
-COMMANDS = (calibrate, simulate, plan, iso9283, view, evaluate, cv, select, identify)
+COMMANDS = (calibrate, simulate, plan, iso9283, view, evaluate, cv, select, identify, fleet)
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -10,7 +10,7 @@ from robocal.io.output import check_replaceable
 def cmd_plan(args) -> int:
     if args.output:
         check_replaceable(args.output, args.force)     # before the work, not only after it
-    plan = plan_from_config(args.config, seed=args.seed)
+    plan = plan_from_config(args.config, seed=args.seed, scheduler=args.scheduler, workers=args.workers)
     files = write_plan(plan, args.output, force=args.force)
     print(summary(plan))
     if not getattr(args, "quiet", False):
@@ -31,5 +31,8 @@ def add_parser(subparsers):
     p.add_argument("--force", action="store_true",
                    help="replace an output folder robocal wrote (refused if it holds other files)")
     p.add_argument("-q", "--quiet", action="store_true", help="print only errors and the summary")
+    p.add_argument("--workers", type=int, default=None, help="compute the accuracy curve on a local Dask cluster "
+                   "of this many workers (the [fleet] extra; docs/fleet.md)")
+    p.add_argument("--scheduler", default=None, help="compute the accuracy curve on this Dask scheduler")
     p.set_defaults(handler=cmd_plan)
     return p

@@ -21,6 +21,7 @@ joint units), prediction.json, accuracy_map.csv, accuracy_curve.csv, summary.txt
 """
 from __future__ import annotations
 
+import functools
 import json
 from dataclasses import dataclass
 from pathlib import Path
@@ -38,6 +39,7 @@ from robocal.design.candidates import CandidateFilter, MeasurementVolume, filter
     random_candidates
 from robocal.design.criteria import CRITERIA
 from robocal.errors import InputError
+from robocal.estimation.fleet.engine import map_tasks
 from robocal.model.kinematics import ModelState
 from robocal.io.output import write_folder
 from robocal.model.parameters import ParameterSet
@@ -71,7 +73,10 @@ class Plan:
         return self.candidates[self.selection.labels]
 
 
-def plan_from_config(path: str | Path, seed: int | None = None) -> Plan:
+def plan_from_config(path: str | Path, seed: int | None = None, scheduler: str | None = None,
+                     workers: int | None = None) -> Plan:
+    """The plan of a config; the accuracy curve's points (independent selections, no random draws) are
+    computed on Dask when `scheduler` or `workers` is given (docs/fleet.md), identical to the serial run."""
     path = Path(path).resolve()
     raw = read_yaml(path)
     if not isinstance(raw, dict):
@@ -140,7 +145,8 @@ def plan_from_config(path: str | Path, seed: int | None = None) -> Plan:
     accuracy = predict_pose_accuracy(params, G)
     counts = plan.get("curve", None, types=list) or _default_counts(design, n)
     counts = [int(c) for c in counts if 1 <= int(c) <= design.n_candidates]
-    curve = accuracy_curve(design, counts, G, criterion, W=W)
+    curve_of = functools.partial(accuracy_curve, design, G=G, criterion=criterion, W=W)
+    curve = [c for one in map_tasks(curve_of, [[n] for n in counts], scheduler, workers) for c in one]
     out = plan.child("output", {})
     out.require_mapping()
     prismatic = [is_prismatic(robot, j) for j in joint_names]

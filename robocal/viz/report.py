@@ -25,19 +25,19 @@ log = logging.getLogger(__name__)
 SHOWN = {"m": (1e3, "mm"), "rad": (1e3, "mrad")}
 
 
-def _png(fn, *args, **kwargs) -> str:
+def png_base64(fn, *args, **kwargs) -> str:
     buf = io.BytesIO()
     fn(*args, buf, **kwargs)
     return base64.b64encode(buf.getvalue()).decode("ascii")
 
 
-def _table(header: list[str], rows: list[list], cls: str) -> str:
+def html_table(header: list[str], rows: list[list], cls: str) -> str:
     head = "".join(f"<th>{html.escape(str(h))}</th>" for h in header)
     body = "".join("<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in r) + "</tr>" for r in rows)
     return f'<table class="{cls}"><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>'
 
 
-def _fmt(v, spec: str = ".4g") -> str:
+def format_value(v, spec: str = ".4g") -> str:
     return "n/a" if v is None or (isinstance(v, float) and not np.isfinite(v)) else format(v, spec)
 
 
@@ -56,23 +56,23 @@ def report_plots(result: dict, scene: dict | None) -> list[tuple[str, str]]:
             r0, r1 = _length_rows(b, "before"), _length_rows(b, "after")
             if r0.shape[1]:
                 out.append((f"Residual per sample of block '{b['name']}' ({b['type']}): length rows, mm",
-                            _png(plots.residuals_per_sample, 1e3 * np.linalg.norm(r0, axis=1),
+                            png_base64(plots.residuals_per_sample, 1e3 * np.linalg.norm(r0, axis=1),
                                  1e3 * np.linalg.norm(r1, axis=1), title=f"{b['name']}: residual per sample")))
         errs = {s: [np.array(b[f"predicted_{s}"]).reshape(-1, 3) - np.array(b[f"measured_{s}"]).reshape(-1, 3)
                     for b in scene["blocks"] if b[f"measured_{s}"]] for s in ("before", "after")}
         if errs["after"]:
             out.append(("Per-axis error of every drawn point (predicted - measured), measurement frame, mm",
-                        _png(plots.error_histograms, 1e3 * np.vstack(errs["before"]), 1e3 * np.vstack(errs["after"]))))
+                        png_base64(plots.error_histograms, 1e3 * np.vstack(errs["before"]), 1e3 * np.vstack(errs["after"]))))
     est = [p for p in result.get("parameters", []) if p.get("vary")]
     if est:
         out.append(("Estimated parameters with +-1 standard error (mm, mrad)",
-                    _png(plots.parameter_estimates, [p["name"] for p in est], [p["value"] for p in est],
+                    png_base64(plots.parameter_estimates, [p["name"] for p in est], [p["value"] for p in est],
                          [p.get("stderr") for p in est], units=[p.get("unit", "") for p in est])))
     ident = (scene or {}).get("identification")
     if ident and ident.get("singular_values"):
         out.append((f"Singular values of the column-scaled identification Jacobian at the start point; the "
                     f"base-parameter selection kept {ident['rank']} of {ident['requested']} parameters",
-                    _png(plots.singular_values, ident["singular_values"], min(ident["rank"], len(ident["singular_values"])))))
+                    png_base64(plots.singular_values, ident["singular_values"], min(ident["rank"], len(ident["singular_values"])))))
     return out
 
 
@@ -82,18 +82,18 @@ def iso9283_section(iso: dict) -> list[str]:
     rows, dist = [], []
     for model in ("nominal", "calibrated"):
         for p in iso.get(model, {}).get("poses", []):
-            rows.append([model, p["pose"], p["visits"], _fmt(1e3 * p["AP"]),
-                         ", ".join(_fmt(1e3 * p[f"AP_{k}"], "+.3g") for k in "xyz"),
-                         ", ".join(_fmt(1e3 * p[f"AP_{k}"], "+.3g") for k in "abc"),
-                         _fmt(1e3 * p["RP"]), ", ".join(_fmt(1e3 * p[f"RP_{k}"], ".3g") for k in "abc")])
+            rows.append([model, p["pose"], p["visits"], format_value(1e3 * p["AP"]),
+                         ", ".join(format_value(1e3 * p[f"AP_{k}"], "+.3g") for k in "xyz"),
+                         ", ".join(format_value(1e3 * p[f"AP_{k}"], "+.3g") for k in "abc"),
+                         format_value(1e3 * p["RP"]), ", ".join(format_value(1e3 * p[f"RP_{k}"], ".3g") for k in "abc")])
         for d in iso.get(model, {}).get("distances", []):
-            dist.append([model, " - ".join(d["poses"]), d["cycles"], _fmt(1e3 * d["AD"]), _fmt(1e3 * d["RD"])])
+            dist.append([model, " - ".join(d["poses"]), d["cycles"], format_value(1e3 * d["AD"]), format_value(1e3 * d["RD"])])
     parts = ["<h2>ISO 9283 pose characteristics (mm, mrad)</h2>",
              f"<p>Frame {html.escape(str(iso.get('frame')))}; the calibrated figures are what the same robot "
              "reaches when its controller uses the calibrated model (first order at the commanded joints).</p>",
-             _table(["model", "pose", "visits", "AP", "AP x, y, z", "AP a, b, c", "RP", "RP a, b, c"], rows, "iso9283")]
+             html_table(["model", "pose", "visits", "AP", "AP x, y, z", "AP a, b, c", "RP", "RP a, b, c"], rows, "iso9283")]
     if dist:
-        parts.append(_table(["model", "poses", "cycles", "AD", "RD"], dist, "iso9283-distance"))
+        parts.append(html_table(["model", "poses", "cycles", "AD", "RD"], dist, "iso9283-distance"))
     return parts
 
 
@@ -106,8 +106,8 @@ def report_html(result: dict, scene: dict | None = None, meshes: bool = True, ti
                ["iterations", result.get("iterations")], ["residual rows", result.get("rows")],
                ["degrees of freedom", result.get("degrees_of_freedom")],
                ["parameters determined", f"{ident.get('rank')} of {ident.get('requested')} requested"],
-               ["condition number", _fmt(result.get("condition_number"), ".3g")],
-               ["residual / stated sigma", _fmt(result.get("sigma_ratio"), ".3f")]]
+               ["condition number", format_value(result.get("condition_number"), ".3g")],
+               ["residual / stated sigma", format_value(result.get("sigma_ratio"), ".3f")]]
     if scene:
         summary.insert(0, ["robot", f"{scene['robot']['name']} ({len(scene['values'])} samples)"])
     blocks = []
@@ -121,20 +121,20 @@ def report_html(result: dict, scene: dict | None = None, meshes: bool = True, ti
         k, unit = SHOWN.get(p.get("unit", ""), (1.0, p.get("unit", "")))
         se = p.get("stderr")
         state = "estimated" if p.get("vary") else ("not identifiable: fixed" if p.get("identifiable") is False else "fixed")
-        params.append([p["name"], unit, _fmt(k * p["value"], "+.5g"),
-                       _fmt(k * se, ".3g") if p.get("vary") and se is not None else "", state])
+        params.append([p["name"], unit, format_value(k * p["value"], "+.5g"),
+                       format_value(k * se, ".3g") if p.get("vary") and se is not None else "", state])
     parts = [f"<h1>{html.escape(title)}</h1>", *refusal_section(result),     # what went wrong first
-             "<h2>Summary</h2>", _table(["quantity", "value"], summary, "summary"),
+             "<h2>Summary</h2>", html_table(["quantity", "value"], summary, "summary"),
              "<h2>Residuals (mm, mrad)</h2>",
              "<p>RMS and maximum of the error norm (3D per point or orientation); before = the nominal robot with "
              "only the registration frames fitted (" + html.escape(", ".join(
                  (result.get("registration_before") or {}).get("parameters") or ["none"])) + ").</p>",
-             _table(["block", "type", "rows", "norm of", "RMS |e| before", "RMS |e| after", "max |e| before",
+             html_table(["block", "type", "rows", "norm of", "RMS |e| before", "RMS |e| after", "max |e| before",
                      "max |e| after", "RMS per component after"], blocks, "residuals"),
              "<h2>Identifiability</h2>", "<ul class=\"identifiability\">"
              + "".join(f"<li>{html.escape(s)}</li>" for s in ident.get("statements", [])) + "</ul>",
              "<h2>Parameters (lengths in mm, angles in mrad)</h2>",
-             _table(["parameter", "unit", "value", "standard error", "status"], params, "parameters")]
+             html_table(["parameter", "unit", "value", "standard error", "status"], params, "parameters")]
     if iso9283:
         parts += iso9283_section(iso9283)
     for evaluation in result.get("evaluations") or []:      # robocal evaluate's files in the folder
@@ -142,8 +142,7 @@ def report_html(result: dict, scene: dict | None = None, meshes: bool = True, ti
     figures = report_plots(result, scene)
     if figures:
         parts.append("<h2>Plots</h2>")
-        parts += [f'<figure><img alt="{html.escape(c)}" src="data:image/png;base64,{b}"><figcaption>'
-                  f"{html.escape(c)}</figcaption></figure>" for c, b in figures]
+        parts += [figure_html(c, b) for c, b in figures]
     if scene:
         from robocal.viz.meshcat_check import SceneView
         page = SceneView(scene, meshes=meshes).static_html()
@@ -153,12 +152,23 @@ def report_html(result: dict, scene: dict | None = None, meshes: bool = True, ti
                   f'<iframe class="scene" title="3D scene" srcdoc="{html.escape(page, quote=True)}"></iframe>']
     else:
         parts.append("<p>No scene.json in this result: no 3D scene and no per-sample plots.</p>")
+    return html_page(title, parts)
+
+
+def html_page(title: str, parts: list[str]) -> str:
+    """A self-contained HTML page of the report's style holding `parts` (HTML fragments)."""
     style = ("body{font-family:sans-serif;max-width:1100px;margin:1em auto;padding:0 1em}"
              "table{border-collapse:collapse;margin:.5em 0}td,th{border:1px solid #ccc;padding:2px 8px;"
              "font-size:13px;text-align:left}th{background:#eef}img{max-width:100%}"
              "iframe.scene{width:100%;height:640px;border:1px solid #ccc}figcaption{font-size:12px;color:#444}")
     return (f"<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>{html.escape(title)}</title>"
             f"<style>{style}</style></head><body>{''.join(parts)}</body></html>")
+
+
+def figure_html(caption: str, png: str) -> str:
+    """An embedded PNG (base64, from png_base64) with its caption."""
+    return (f'<figure><img alt="{html.escape(caption)}" src="data:image/png;base64,{png}"><figcaption>'
+            f"{html.escape(caption)}</figcaption></figure>")
 
 
 def report_bytes(result, scene=None, meshes: bool = True, iso9283: dict | None = None) -> bytes:

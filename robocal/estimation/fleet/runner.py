@@ -1,0 +1,72 @@
+"""`fleet run`: calibrate every unit of a fleet.yaml on Dask, streaming rows to the table.
+
+Units whose inputs and config hashes already have a final row are skipped (a re-run after a crash
+or a killed worker does only what is left). Every other unit is submitted at once; each finished
+unit's row is put into the table, which is rewritten atomically every FLUSH_SECONDS and at the end
+(also on an interrupt), so a crash loses at most the last second's units, which a re-run redoes.
+A worker that dies takes its running task with it: Dask runs that task again on another worker, and
+only a task that kills its workers repeatedly comes back as a 'lost' row.
+"""
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+from robocal.estimation.fleet.engine import completed, dask_client
+from robocal.estimation.fleet.manifest import FleetSpec, UnitJob, load_fleet
+from robocal.estimation.fleet.table import FleetTable
+from robocal.estimation.fleet.unit import FINAL_STATUSES, LOST, calibrate_unit
+
+log = logging.getLogger(__name__)
+#: the table is rewritten at most this often (s) while units finish, and once at the end
+FLUSH_SECONDS = 1.0
+
+
+@dataclass
+class FleetRun:
+    """What one `fleet run` did."""
+
+    table_path: Path
+    units: int
+    skipped: int
+    calibrated: int = 0
+    statuses: dict[str, int] = field(default_factory=dict)
+    failures: list[dict] = field(default_factory=list)    # rows whose status is not 'converged'
+
+
+def lost_row(job: UnitJob, exc: BaseException) -> dict:
+    return {**job.identity(), "status": LOST,
+            "message": f"the cluster lost this unit's task ({type(exc).__name__}: {exc}); a re-run calibrates it"}
+
+
+def run_fleet(fleet: str | Path | FleetSpec, scheduler: str | None = None, workers: int | None = None,
+              progress: Callable[[int, int, dict], None] | None = None) -> FleetRun:
+    """Calibrate the units of `fleet` not yet in its table; progress(done, to_do, row) after each one."""
+    spec = fleet if isinstance(fleet, FleetSpec) else load_fleet(fleet)
+    table = FleetTable.open(spec.table_path)
+    todo = [j for j in spec.jobs if not table.is_done(j, FINAL_STATUSES)]
+    run = FleetRun(spec.table_path, len(spec.jobs), len(spec.jobs) - len(todo))
+    log.info("%d units, %d already in %s, %d to calibrate", run.units, run.skipped, spec.table_path, len(todo))
+    if not todo:
+        return run
+    last_write = time.monotonic()
+    with dask_client(scheduler, workers) as client:
+        try:
+            for i, row, exc in completed(client, calibrate_unit, todo):
+                row = lost_row(todo[i], exc) if exc is not None else row
+                table.put(row)
+                if time.monotonic() - last_write >= FLUSH_SECONDS:
+                    table.write()
+                    last_write = time.monotonic()
+                run.calibrated += 1
+                run.statuses[row["status"]] = run.statuses.get(row["status"], 0) + 1
+                if row["status"] != "converged":
+                    run.failures.append(row)
+                if progress:
+                    progress(run.calibrated, len(todo), row)
+        finally:   # also on an interrupt: every unit finished so far is kept
+            table.write()
+    return run
