@@ -296,3 +296,36 @@ def test_patent_newton_converges_quadratically_and_agrees_with_lm(robot):
     floor = np.linalg.norm(np.linalg.pinv(ev.J), 2) * np.linalg.norm(ev.r)
     assert max(abs(newton.params[n].value - lm.params[n].value) for n in lm.params.free_names) < 2 * floor + 1e-11
     assert robot_error(newton.params, truth) < 2 * floor + 1e-11
+
+
+def test_patent_newton_from_the_spec_1_mm_set_up_with_damping_and_line_search(robot):
+    """Spec test 5 as set up there: T fixed, 24 unknowns N(0, 1 mm), 6 full poses, e = 1e-3 mm. The raw
+    Newton step overshoots from this start (indefinite Hessian); with the Cholesky shift and backtracking
+    of patent_newton it converges, ends quadratically and agrees with LM (docs/stewart_calibration.md)."""
+    from robocal.systems.stewart.newton import patent_newton
+    rng = np.random.default_rng(5)
+    truth = truth_params(rng, sigma=1e-3, fix_t=True)
+    rows, s = pose_data(robot, truth, 6, rng)
+
+    def problem():
+        params = sc.stewart_parameters(fix_platform_joints=True)
+        for p in truth:
+            if not p.vary:
+                params[p.name].value = p.value
+        return Problem(robot, params, sc.actuated(robot), s,
+                       sm.pose_residuals("pose", robot, np.arange(6), rows, FULL, TOOL, sigma=(1e-6, 1e-6)))
+
+    newton = problem()
+    res = patent_newton(newton, e=1e-6, max_iterations=40)
+    assert res.converged
+    assert all(b <= a for a, b in zip(res.F, res.F[1:]))               # every accepted step lowers F
+    # the last steps above the rounding floor are quadratic (order ~2; 1 would be a linear rate)
+    e = np.sqrt(np.array(res.F) / res.F[0])
+    orders = [np.log(e[k + 1]) / np.log(e[k]) for k in range(1, len(e) - 1) if e[k + 1] > 5 * e[-1] and e[k] < 1e-2]
+    assert orders and max(orders) > 1.8
+    lm = problem()
+    calibrate(lm)
+    ev = newton.evaluate()
+    floor = np.linalg.norm(np.linalg.pinv(ev.J), 2) * np.linalg.norm(ev.r)    # as in the test above
+    assert max(abs(newton.params[n].value - lm.params[n].value) for n in lm.params.free_names) < 2 * floor + 1e-11
+    assert robot_error(newton.params, truth) < 2 * floor + 1e-11
