@@ -1,7 +1,7 @@
 """Calibrate a 6-6 Stewart platform in each of the five measuring modes on its own, then in a mix.
 
-Source: Chinese patent application CN1951642A (Stewart-platform parameter calibration with five
-measuring modes; docs/stewart_calibration.md). The true machine is the nominal one with N(0, 1 mm) on
+Source: Chinese patent application CN1951642A, "Parallel kinematic machine, calibration method of the
+parallel kinematic machine, and calibration program product" (docs/stewart_calibration.md). The true machine is the nominal one with N(0, 1 mm) on
 every one of its 42 parameters; measurements carry the spec's noise (1 um on positions and on contact /
 ball-bar lengths, 1 urad on angles). Each fit is judged like the spec's headline: the maximum tool-tip
 error over 50 fresh validation poses (before calibration: millimetres). Modes 2-5 measure the tip's
