@@ -15,7 +15,8 @@ from robocal.systems.floating_nut.urdf import write_urdf
 
 DEG = np.pi / 180
 
-geometry = reference_fixture()                      # seed-002 fixture: lead 10 mm, sigma +1, radial axes
+# the reference fixture of docs/floating_nut_hexapod.md: lead 10 mm, sigma +1, radial axes
+geometry = reference_fixture()
 kin = FloatingNutKinematics(geometry)
 
 # 1. IK at a pose: effective length, nut rotation, additional length, motor command length

@@ -138,7 +138,7 @@ def test_reference_posture_with_weight_1000_is_matched_despite_unmodelled_sag(ro
     assert ref_pos < 1e-2 * rest_rms
 
 
-def _contacts(robot, truth, rng, ball_bar_locations=3, off=0.0123, per_bar=8):
+def contact_data(robot, truth, rng, ball_bar_locations=3, off=0.0123, per_bar=8):
     """Types 2-5 set-ups in the workspace, with struts of the true machine at each contact."""
     geo = sc.geometry(robot, truth)
     blocks, tips_all = [], []
@@ -172,7 +172,7 @@ def test_mixed_modes_give_the_same_answer_as_full_poses_and_recover_the_ball_bar
     rng = np.random.default_rng(15)
     truth = truth_params(rng)
     rows, s_pose = pose_data(robot, truth, 12, rng)
-    contact_blocks, s_contact = _contacts(robot, truth, rng)
+    contact_blocks, s_contact = contact_data(robot, truth, rng)
     for b in contact_blocks:
         b.samples = b.samples + 12
     blocks = sm.pose_residuals("pose", robot, np.arange(12), rows, FULL, TOOL, (1e-6, 1e-6)) + contact_blocks
@@ -188,7 +188,7 @@ def test_mixed_modes_give_the_same_answer_as_full_poses_and_recover_the_ball_bar
 def test_ball_bar_offset_from_three_locations_with_platform_joints_fixed(robot):
     rng = np.random.default_rng(11)
     truth = truth_params(rng, fix_t=True)
-    blocks, s = _contacts(robot, truth, rng, per_bar=12)
+    blocks, s = contact_data(robot, truth, rng, per_bar=12)
     blocks = blocks[-3:]
     first = blocks[0].samples[0]
     for b in blocks:
