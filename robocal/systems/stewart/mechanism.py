@@ -102,7 +102,8 @@ class StewartGeometry:
     @classmethod
     def spec_6_6(cls) -> "StewartGeometry":
         """The reference machine (docs/stewart_calibration.md): base joints on a 0.7 m circle at z = 1.5 m
-        (120k +- 15 deg), platform joints on a 0.25 m circle, o = 0.9 m, tool tip (0, 0, -0.2) m, home tip z = 0.35 m."""
+        (120k +- 15 deg), platform joints on a 0.25 m circle, o = 0.9 m, tool tip (0, 0, -0.2) m, home tip
+        z = 0.35 m."""
         return cls.circular(0.7, [-15, 15, 105, 135, 225, 255], 1.5, 0.25, [-45, 45, 75, 165, 195, 285],
                             [(k, k) for k in range(6)], 0.9, (0.0, 0.0, -0.2), 0.55)
 
