@@ -45,8 +45,10 @@ def _newton_step(a: np.ndarray, rhs: np.ndarray) -> np.ndarray:
     return rhs / scale                              # steepest descent, scaled
 
 
-def patent_newton(problem: Problem, e: float = 1e-6, max_iterations: int = 20, xtol: float = 1e-13) -> NewtonResult:
-    """Minimise F over the problem's free parameters in place (SI units; e in the parameters' units)."""
+def patent_newton(problem: Problem, e: float = 1e-6, max_iterations: int = 20, xtol: float = 1e-13,
+                  safeguarded: bool = True) -> NewtonResult:
+    """Minimise F over the problem's free parameters in place (SI units; e in the parameters' units).
+    safeguarded=False takes the patent's literal full Newton step (no shift, no line search)."""
     params = problem.params
     x = params.free_values()
     history = []
@@ -68,8 +70,8 @@ def patent_newton(problem: Problem, e: float = 1e-6, max_iterations: int = 20, x
                 Js.append(problem.evaluate().J)
             second[:, j] = r @ ((Js[0] - Js[1]) / e)      # sum_k r_k d2r_k / dx_i dx_j
         a = 2.0 * (J.T @ J + 0.5 * (second + second.T))
-        dx = _newton_step(a, -2.0 * J.T @ r)
-        for _ in range(MAX_HALVINGS):            # backtracking: accept the first step that lowers F
+        dx = _newton_step(a, -2.0 * J.T @ r) if safeguarded else np.linalg.solve(a, -2.0 * J.T @ r)
+        for _ in range(MAX_HALVINGS if safeguarded else 0):            # backtracking: accept the first step that lowers F
             params.set_free_values(x + dx)
             r_new = problem.evaluate(jacobian=False).r
             if r_new @ r_new < history[-1]:
