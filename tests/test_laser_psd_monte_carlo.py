@@ -3,11 +3,17 @@
 Noise model: 0.0005 deg per single joint read, 3 reads averaged per pose. Figures that do not match the
 spec within 25 % are each given a reason here that a run can check (see the docs page's table).
 """
+from dataclasses import replace
+
 import numpy as np
+import pytest
 from scipy import stats
 
 from laser_psd_cases import DELTA_TRUE, DIRECTION, MOUNT, TARGET, exact_readings, joints, readings_for, robot, truth
-from robocal.systems.laser_psd.full_parameters import full_parameter_rank
+from robocal.model.dh_urdf import IRB1600_145, dh_urdf
+from robocal.model.robot import load_urdf
+from robocal.systems.laser_psd.calibration import zero_offset_problem
+from robocal.systems.laser_psd.full_parameters import dh_columns, full_parameter_rank
 from robocal.systems.laser_psd.monte_carlo import averaged_reading_noise, offset_monte_carlo, sweep_predicted_sd
 from robocal.systems.laser_psd.plans import multi_fan, patent_fan
 
@@ -71,3 +77,37 @@ def test_spec_figures_outside_25_percent_have_a_checked_reason():
         assert patent[:, k].min() / 1.25 <= SPEC["patent"][k] <= 1.25 * patent[:, k].max()
     for k in (0, 1, 4):
         assert three[:, k].min() / 1.25 <= SPEC["three_fans"][k] <= 1.25 * three[:, k].max()
+
+
+@pytest.mark.parametrize("name", ["joint_1.alpha", "joint_2.a", "joint_3.alpha", "joint_4.d", "joint_5.theta",
+                                  "joint_6.a", "joint_6.alpha"])
+def test_dh_columns_match_finite_differences_of_the_dh_table(tmp_path, name):
+    """Each DH column (a fixed combination of placement twists) against the residual of a robot rebuilt
+    from the DH table with that entry moved by +-h. At the truth (zero residual), so the row basis's
+    own dependence on the model does not enter to first order."""
+    q = exact_readings("patent")
+    problem = zero_offset_problem(robot(), joints(), q, MOUNT, mount_free=True, preset="full",
+                                  frames={"tool0": True}, target_guess=TARGET)
+    for j, d in zip(joints(), DELTA_TRUE):
+        problem.params[f"{j}.offset"].value = d
+    names, T = dh_columns(problem, joints(), "tool0")
+    column = (problem.evaluate().J @ T)[:, names.index(name)]
+    joint, field = name.split(".")
+    k = joints().index(joint)
+    attr = {"a": "a", "alpha": "alpha", "d": "d", "theta": "theta_offset"}[field]
+    h = 1e-6
+
+    def residual(step):
+        rows = list(IRB1600_145)
+        rows[k] = replace(rows[k], **{attr: getattr(rows[k], attr) + step})
+        path = tmp_path / f"dh_{step:+g}.urdf"
+        path.write_text(dh_urdf(rows, "moved", end_link="tool0"))
+        moved = zero_offset_problem(load_urdf(path), joints(), q, MOUNT, mount_free=True, target_guess=TARGET)
+        for j, d in zip(joints(), DELTA_TRUE):
+            moved.params[f"{j}.offset"].value = d
+        return moved.evaluate(jacobian=False).r
+
+    fd = (residual(h) - residual(-h)) / (2 * h)
+    # central differences: truncation h^2 |r'''| ~ 1e-12 |r'|; rounding eps |r| / h with r ~ 1e-6 at
+    # +-h: ~1e-10; the URDF's printed digits (format_numbers, 1e-12 and finer) stay below both
+    assert np.abs(fd - column).max() < 1e-6 * max(np.abs(column).max(), 1.0)
