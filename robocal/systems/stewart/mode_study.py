@@ -72,50 +72,47 @@ class ModeStudy:
         return ModeData(sm.pose_residuals("pose", self.robot, np.arange(first, first + n), rows, 1, self.tool,
                                           (self.sig_p, self.sig_a)), s)
 
+    def contacts(self, objects, n: int, first: int, touch) -> ModeData:
+        """n contacts on each object: touch(k, object, samples) -> (residual, tip centres); the struts are
+        read with the platform turned at random."""
+        parts = []
+        for k, obj in enumerate(objects):
+            residual, tips = touch(k, obj, np.arange(first + k * n, first + (k + 1) * n))
+            parts.append((residual, self.struts_at(tips)[1]))
+        return ModeData([r for r, _ in parts], np.vstack([s for _, s in parts]))
+
     def planes(self, n: int, first: int = 0, objects=PLANES) -> ModeData:
-        out = []
-        for k, (point, normal) in enumerate(objects):
-            nrm = _unit(normal)
+        def touch(k, obj, samples):
+            point, nrm = obj[0], _unit(obj[1])
             tips = sc.plane_tips(point, nrm, self.tool, n, self.rng, span=0.15)
             tips += np.outer(self.noise * self.rng.normal(0, self.sig_p, n), nrm)
-            out.append((sm.plane_residual(f"plane{k}", np.arange(first, first + n), point, nrm, self.tool,
-                                          self.sig_p), self.struts_at(tips)[1]))
-            first += n
-        return _stack(out)
+            return sm.plane_residual(f"plane{k}", samples, point, nrm, self.tool, self.sig_p), tips
+        return self.contacts(objects, n, first, touch)
 
     def holes(self, n: int, first: int = 0, objects=HOLES) -> ModeData:
-        out = []
-        for k, (centre, axis) in enumerate(objects):
-            a, c = _unit(axis), np.asarray(centre, dtype=float)
+        def touch(k, obj, samples):
+            c, a = np.asarray(obj[0], dtype=float), _unit(obj[1])
             tips = sc.cylinder_tips(c, a, HOLE_RADIUS, self.tool, n, self.rng, kind="hole", depth=HOLE_DEPTH)
             radial = tips - c - np.outer((tips - c) @ a, a)
             noise = self.noise * self.rng.normal(0, self.sig_p, (n, 1))
             tips += radial / np.linalg.norm(radial, axis=1, keepdims=True) * noise
-            out.append((sm.cylinder_residual(f"hole{k}", np.arange(first, first + n), c, a, HOLE_RADIUS, self.tool,
-                                             "hole", self.sig_p), self.struts_at(tips)[1]))
-            first += n
-        return _stack(out)
+            return sm.cylinder_residual(f"hole{k}", samples, c, a, HOLE_RADIUS, self.tool, "hole", self.sig_p), tips
+        return self.contacts(objects, n, first, touch)
 
     def balls(self, n: int, first: int = 0, objects=BALLS) -> ModeData:
-        out = []
-        for k, c in enumerate(objects):
+        def touch(k, c, samples):
             d = BALL_RADIUS + self.tool.tip_radius + self.noise * self.rng.normal(0, self.sig_p, n)
             tips = sc.sphere_tips(c, d, n, self.rng, min_up=0.0)
-            out.append((sm.ball_residual(f"ball{k}", np.arange(first, first + n), c, BALL_RADIUS, self.tool,
-                                         self.sig_p), self.struts_at(tips)[1]))
-            first += n
-        return _stack(out)
+            return sm.ball_residual(f"ball{k}", samples, c, BALL_RADIUS, self.tool, self.sig_p), tips
+        return self.contacts(objects, n, first, touch)
 
     def ball_bar(self, n: int, first: int = 0, objects=BAR_BASES) -> ModeData:
-        out = []
-        for k, c in enumerate(objects):
+        def touch(k, c, samples):
             length = self.rng.uniform(*BAR_LENGTHS, n)            # the bar swept over the upper half-sphere
             tips = sc.sphere_tips(c, length, n, self.rng, min_up=0.0)
             reading = length - BAR_ORIGIN_OFFSET + self.noise * self.rng.normal(0, self.sig_p, n)
-            out.append((sm.ball_bar_residual(f"dbb{k}", np.arange(first, first + n), reading, c, self.tool,
-                                             self.sig_p), self.struts_at(tips)[1]))
-            first += n
-        return _stack(out)
+            return sm.ball_bar_residual(f"dbb{k}", samples, reading, c, self.tool, self.sig_p), tips
+        return self.contacts(objects, n, first, touch)
 
     def fit(self, data: ModeData, fix_platform_joints: bool):
         """Calibrate from nominal (T at its true value when fixed: measured on a CMM); returns the result
@@ -129,10 +126,6 @@ class ModeStudy:
 
     def tip_errors(self, params) -> np.ndarray:
         return sc.tip_errors(self.true_geo, sc.geometry(self.robot, params), self.tool, self.val_tips, self.val_R)
-
-
-def _stack(parts) -> ModeData:
-    return ModeData([r for r, _ in parts], np.vstack([s for _, s in parts]))
 
 
 def mix(parts: list[ModeData]) -> ModeData:
