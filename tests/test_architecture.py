@@ -14,7 +14,8 @@ MAX_LINES = 400
 # imported inside functions on purpose: optional extras ([viz], [fast], [fleet], [test]) and the pages
 # built on them, so a core install imports without them
 OPTIONAL = ("numba", "meshcat", "matplotlib", "dask", "distributed", "pyarrow", "hypothesis",
-            "robocal.viz.meshcat_check", "robocal.viz.report", "robocal.viz.plots", "robocal.estimation.fleet")
+            "robocal.viz.meshcat_check", "robocal.viz.report", "robocal.viz.plots", "robocal.viz.fleet_plots",
+            "robocal.estimation.fleet")
 
 
 def modules() -> dict[str, Path]:

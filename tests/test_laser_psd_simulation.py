@@ -12,7 +12,7 @@ from robocal.systems.laser_psd.plans import PlannedPose, plan_configurations
 from robocal.systems.laser_psd.simulation import PSD, SimRobot, acquire, average_reads, servo_to_center
 from robocal.model.parameters import robot_parameters
 
-SIGMA_Q = np.radians(0.0005)      # joint-reading noise of the spec's Monte Carlo, per averaged reading
+SIGMA_Q = np.radians(0.0005)      # per averaged reading (the spec's per-read model: test_laser_psd_monte_carlo.py)
 FREE = [f"joint_{i}.offset" for i in range(2, 7)]
 
 

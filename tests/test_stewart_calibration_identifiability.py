@@ -7,7 +7,7 @@ from robocal.estimation.calibrate import calibrate
 from robocal.estimation.problem import Problem
 from robocal.systems.stewart import calibration as sc
 from robocal.systems.stewart import modes as sm
-from test_stewart_calibration_recovery import TOOL, _contacts, robot, truth_params  # noqa: F401 (fixture)
+from test_stewart_calibration_recovery import TOOL, contact_data, robot, truth_params  # noqa: F401 (fixture)
 
 ANGLES = np.radians([15, 7.5, 0, -7.5, -15])
 
@@ -77,7 +77,7 @@ def test_without_c_garbage_c_values_do_not_change_the_fit(robot):
 
 def contact_problem(robot, rng, kinds, fix_t=True, bars=3):
     truth = truth_params(rng, fix_t=fix_t)
-    blocks, s = _contacts(robot, truth, rng, ball_bar_locations=bars, per_bar=30)
+    blocks, s = contact_data(robot, truth, rng, ball_bar_locations=bars, per_bar=30)
     keep = [b for b in blocks if b.name.rstrip("0123456789") in kinds]
     idx = np.concatenate([b.samples for b in keep])
     remap = {int(i): k for k, i in enumerate(idx)}
@@ -150,7 +150,7 @@ def test_three_ball_bars_and_tilt_only_poses_leave_only_the_spin(robot):
     all 42 parameters free: one null direction remains, the spin of T about the tool axis."""
     rng = np.random.default_rng(19)
     truth = truth_params(rng)
-    blocks, s = _contacts(robot, truth, rng, ball_bar_locations=3, per_bar=30)
+    blocks, s = contact_data(robot, truth, rng, ball_bar_locations=3, per_bar=30)
     keep = [b for b in blocks if b.name.startswith("dbb")]
     idx = np.concatenate([b.samples for b in keep])
     remap = {int(i): k for k, i in enumerate(idx)}

@@ -6,7 +6,7 @@ the end of the strut's rod r_j (the rod's own anchor, at the read strut coordina
 
     r_j = |x(a_j) - x(b_j)| - |x(r_j) - x(b_j)|
 
-i.e. the closed-form IK joint-to-joint length minus o_j + s_j (see docs/stewart_calibration.md; e = f(p, x) - s).
+i.e. the closed-form IK joint-to-joint length minus o_j + s_j (docs/stewart_calibration.md; e = f(p, x) - s).
 It needs no forward kinematics, so it stays defined for parameters far from the truth (the first
 stage of a two-stage solve). One term = one sample, one row per strut. No measurement columns: the
 measured pose and the strut readings are the sample's joint readings.

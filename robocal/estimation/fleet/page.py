@@ -12,7 +12,7 @@ MAX_DRIFT_PANELS = 6
 
 
 def fleet_page(rep: FleetReport, title: str = "robocal fleet report") -> str:
-    from robocal.viz import fleet_plots   # matplotlib: the optional [viz] extra
+    import robocal.viz.fleet_plots as fleet_plots   # matplotlib: the optional [viz] extra
     from robocal.viz.report import figure_html, format_value, html_page, html_table, png_base64
 
     status = [[s, n] for s, n in sorted(rep.statuses.items())]

@@ -14,15 +14,16 @@ length, and q_stroke + sigma L/2pi q_roll = (L/L0) u. Its parameters map onto ge
 
 A rotation of a Hooke frame about its own axis only shifts a passive joint's zero: the identifiability
 analysis reports it as undetermined, and the axes are weakly determined in any case (they act through
-L/2pi x roll, about 1.6 mm per rad for a 10 mm lead), so they are off by default (spec §7.6).
+L/2pi x roll, about 1.6 mm per rad for a 10 mm lead), so they are off by default (docs/floating_nut_hexapod.md).
 """
 from __future__ import annotations
 
 import copy
+
 from robocal.estimation.calibrate import CalibrationOptions, calibrate
+from robocal.model.loops import LoopSet
 from robocal.model.parameters import Parameter, ParameterSet, offset_parameter, placement_parameters
 from robocal.model.robot import Robot
-from robocal.model.loops import LoopSet
 
 LEGS = 6
 XYZ = ("tx", "ty", "tz")
@@ -78,7 +79,7 @@ def uncompensated_robot(robot: Robot) -> Robot:
 
 
 def choose_thread_hands(problem, options: CalibrationOptions | None = None, legs=range(1, LEGS + 1)):
-    """Fit, flip each leg's thread hand in turn and keep a flip that lowers the fitted cost (spec §7.6:
+    """Fit, flip each leg's thread hand in turn and keep a flip that lowers the fitted cost (docs/floating_nut_hexapod.md:
     sigma is discrete). Returns (result of the final fit, {relation: chosen sigma}); problem.params end at
     that fit."""
     start = problem.params.copy()

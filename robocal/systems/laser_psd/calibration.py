@@ -1,4 +1,4 @@
-"""Zero-offset self-calibration with a laser on the flange and a PSD at an unknown point (seed 001).
+"""Zero-offset self-calibration with a laser on the flange and a PSD at an unknown point (docs/laser_psd.md).
 
 The robot is servoed until its beam hits the PSD centre from many orientations; the joint readings are
 the data and "every beam passes through one point" is the model (robocal.residuals.laser_line, with the
@@ -18,6 +18,7 @@ from robocal.errors import InputError
 from robocal.model.kinematics import ModelState
 from robocal.systems.laser_psd.pairwise import PairwiseScatterResidual, eligible_pairs, lsq_point
 from robocal.model.parameters import ParameterSet, robot_parameters
+from robocal.estimation.calibrate import calibrate
 from robocal.estimation.problem import Problem
 from robocal.residuals.base import basis_from_normal
 from robocal.residuals.laser_line import LaserLineResidual
@@ -196,7 +197,6 @@ class LaserCalibration:
 def calibrate_laser(problem: Problem, mount: LaserMount, options=None) -> LaserCalibration:
     """robocal.estimation.calibrate.calibrate plus the laser sentences. No special-casing: the residual is invariant
     to a spin about the beam, so the generic selection itself drops joint 6 when it is such a spin."""
-    from robocal.estimation.calibrate import calibrate
     result = calibrate(problem, options)
     return LaserCalibration(result, laser_statements(result, problem, mount))
 

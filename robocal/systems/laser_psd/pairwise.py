@@ -1,4 +1,4 @@
-"""The patent's objective (CN101968341A claim 4, seed-001 spec 2.3-2.4): pairwise beam "intersections".
+"""The patent's objective (see docs/laser_psd.md): pairwise beam "intersections".
 
 For every eligible pair of beams (i, j) the midpoint P_k of their common perpendicular is taken as their
 intersection; the residual of pair k is P_k - mean(P), zero exactly when all beams meet in one point.

@@ -1,4 +1,4 @@
-"""Calibrating a Stewart platform (spec seed-000): its 42 parameters, strut data, identifiability words.
+"""Calibrating a Stewart platform (docs/stewart_calibration.md): its 42 parameters, strut data, identifiability words.
 
 Parameters (names of the generic kinds, see robocal.systems.stewart.mechanism):
   N_j  base joint        leg{j}_u1.tx/ty/tz        (translation of the joint placement, u1 frame)
@@ -7,7 +7,7 @@ Parameters (names of the generic kinds, see robocal.systems.stewart.mechanism):
 The measurement frame is the reference coordinate system (RCS); the tool tip tau = (0, 0, -L).
 
 Strut data come from the NC (readings) or from its posture commands converted with the NC's current
-parameters (`commands_to_struts`, claims 12 and 14). Synthetic data follow spec §6.4: the tool is put
+parameters (`commands_to_struts`, claims 12 and 14). Synthetic data (docs/stewart_calibration.md): the tool is put
 physically on the reference object, so the struts are the true machine's closed-form IK of that pose.
 """
 from __future__ import annotations
@@ -17,9 +17,10 @@ import pinocchio as pin
 
 from robocal.estimation.identifiability import BaseSelection, select_base_parameters
 from robocal.model.kinematics import ModelState
-from robocal.systems.stewart.mechanism import StewartGeometry, geometry_from_model, inverse_kinematics
+from robocal.systems.stewart.mechanism import (StewartGeometry, forward_kinematics, geometry_from_model,
+                                               inverse_kinematics)
 from robocal.model.parameters import ParameterSet, offset_parameter, placement_parameters
-from robocal.systems.stewart.modes import Tool, _rows, rotation
+from robocal.systems.stewart.modes import Tool, numeric_rows, rotation
 
 LEGS = 6
 
@@ -65,21 +66,19 @@ def commands_to_struts(commands, nc_geometry: StewartGeometry, tool: Tool, conve
                        source: str = "commands") -> np.ndarray:
     """Claims 12, 14: strut coordinates the NC drove for posture commands (K, 6) X Y Z A B C (m, rad),
     i.e. IK(command, x_NC) with the NC's current parameters: exactly the strut readings it stored."""
-    m = _rows(commands, 6, source)
+    m = numeric_rows(commands, 6, source)
     R = np.array([rotation(r[3:], convention) for r in m])
     return struts(nc_geometry, tip_to_platform(m[:, :3], R, tool))
 
 
 def forward_pose(geo: StewartGeometry, s, tool: Tool, guess: pin.SE3 | None = None, sample=None) -> pin.SE3:
     """Platform pose reached with strut coordinates s (closed-form Newton FK)."""
-    from robocal.systems.stewart.mechanism import forward_kinematics
     return forward_kinematics(geo, s, guess=guess, sample=sample)
 
 
 def tip_errors(true_geo: StewartGeometry, model_geo: StewartGeometry, tool: Tool, tips, R) -> np.ndarray:
     """Tool-tip position errors (K,) (m) of a model over validation poses: the true machine is put at
     (tips, R); the model computes the tip by FK from the struts the true machine reads there."""
-    from robocal.systems.stewart.mechanism import forward_kinematics
     poses = tip_to_platform(tips, R, tool)
     out = []
     for k, M in enumerate(poses):
@@ -88,7 +87,7 @@ def tip_errors(true_geo: StewartGeometry, model_geo: StewartGeometry, tool: Tool
     return np.array(out)
 
 
-# ---- synthetic acquisition plans (spec §6.4): tool-tip centres on the reference objects -------------
+# ---- synthetic acquisition plans (docs/stewart_calibration.md): tool-tip centres on the reference objects
 def random_tips(n: int, rng: np.random.Generator, xy: float = 0.15, z=(0.25, 0.45)) -> np.ndarray:
     """(n, 3) tool tips uniform in the spec workspace (x, y in +-xy, z in `z`, m)."""
     return np.column_stack([rng.uniform(-xy, xy, n), rng.uniform(-xy, xy, n), rng.uniform(z[0], z[1], n)])
@@ -162,7 +161,7 @@ def _direction(params: ParameterSet, robot, dN=None, dT=None, extra: dict | None
 
 def null_directions(J: np.ndarray, rtol: float = 1e-10) -> tuple[np.ndarray, np.ndarray]:
     """(n, k) orthonormal basis of the numerical null space of the column-scaled J (relative
-    singular-value threshold rtol, spec §6.5 test 8), in the scaled coordinates, and the scales."""
+    singular-value threshold rtol; docs/stewart_calibration.md), in the scaled coordinates, and the scales."""
     scale = np.linalg.norm(J, axis=0)
     scale[scale == 0] = 1.0
     _, s, Vt = np.linalg.svd(J / scale, full_matrices=True)
@@ -229,7 +228,7 @@ def identifiability(problem, rtol: float = 1e-8) -> BaseSelection:
 
 def check_readings(s, source: str = "struts") -> np.ndarray:
     """(K, 6) strut readings; InputError naming the row and field of a bad value."""
-    m = _rows(s, LEGS, source)
+    m = numeric_rows(s, LEGS, source)
     return m
 
 

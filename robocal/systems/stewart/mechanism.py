@@ -1,6 +1,6 @@
 """Stewart (6-UPS) platforms: geometry, closed-form IK and URDF writer (Newton FK: stewart_fk.py).
 
-Geometry (SI; spec seed-000 §2.3): base joints N (n_b, 3) in the world/reference frame, platform
+Geometry (SI; docs/stewart_calibration.md): base joints N (n_b, 3) in the world/reference frame, platform
 joints T (n_p, 3) in the platform frame, and one origin offset o_j per strut, so that for strut j
 joining base joint b(j) to platform joint e(j)
 
@@ -101,15 +101,16 @@ class StewartGeometry:
 
     @classmethod
     def spec_6_6(cls) -> "StewartGeometry":
-        """Seed-000 §6.8 reference machine: base joints on a 0.7 m circle at z = 1.5 m (120k +- 15 deg),
-        platform joints on a 0.25 m circle, o = 0.9 m, tool tip (0, 0, -0.2) m, home tip z = 0.35 m."""
+        """The reference machine (docs/stewart_calibration.md): base joints on a 0.7 m circle at z = 1.5 m
+        (120k +- 15 deg), platform joints on a 0.25 m circle, o = 0.9 m, tool tip (0, 0, -0.2) m, home tip
+        z = 0.35 m."""
         return cls.circular(0.7, [-15, 15, 105, 135, 225, 255], 1.5, 0.25, [-45, 45, 75, 165, 195, 285],
                             [(k, k) for k in range(6)], 0.9, (0.0, 0.0, -0.2), 0.55)
 
     @classmethod
     def spec_3_3(cls) -> "StewartGeometry":
-        """Seed-000 §6.8 3-3 variant: 3 base points (0.7 m circle), 3 platform points (0.25 m circle,
-        interleaved by 60 deg), struts (B1,P1) (B1,P2) (B2,P2) (B2,P3) (B3,P3) (B3,P1)."""
+        """The 3-3 variant (docs/stewart_calibration.md): 3 base points (0.7 m circle), 3 platform points
+        (0.25 m circle, interleaved by 60 deg), struts (B1,P1) (B1,P2) (B2,P2) (B2,P3) (B3,P3) (B3,P1)."""
         legs = [(0, 0), (0, 1), (1, 1), (1, 2), (2, 2), (2, 0)]
         return cls.circular(0.7, [0, 120, 240], 1.5, 0.25, [-60, 60, 180], legs, 0.9, (0.0, 0.0, -0.2), 0.55)
 
@@ -120,7 +121,7 @@ class StewartGeometry:
 
 # ---- poses ----------------------------------------------------------------------------------
 def rotation_xyz(abc) -> np.ndarray:
-    """R = Rx(A) Ry(B) Rz(C) (spec §2.2) from angles (3,) in rad, or a batch (K, 3) -> (K, 3, 3)."""
+    """R = Rx(A) Ry(B) Rz(C) (docs/stewart_calibration.md) from angles (3,) in rad, or a batch (K, 3) -> (K, 3, 3)."""
     abc = np.asarray(abc, dtype=float)
     a, b, c = np.moveaxis(np.atleast_2d(abc), -1, 0)
     ca, sa, cb, sb, cc, sc = np.cos(a), np.sin(a), np.cos(b), np.sin(b), np.cos(c), np.sin(c)
@@ -133,8 +134,8 @@ def rotation_xyz(abc) -> np.ndarray:
 
 def random_workspace_poses(geometry: StewartGeometry, n: int, rng: np.random.Generator,
                            xy=0.15, z=(0.25, 0.45), angle_deg=15.0):
-    """Random platform poses whose tool tip lies in the spec workspace (§6.5): tip x, y in +-xy,
-    z in `z`, angles A, B, C in +-angle_deg. Returns R (n, 3, 3) and platform origins p (n, 3)."""
+    """Random platform poses whose tool tip lies in the reference workspace (docs/stewart_calibration.md):
+    tip x, y in +-xy, z in `z`, angles A, B, C in +-angle_deg. Returns R (n, 3, 3) and platform origins p (n, 3)."""
     tip = np.column_stack([rng.uniform(-xy, xy, n), rng.uniform(-xy, xy, n), rng.uniform(z[0], z[1], n)])
     R = rotation_xyz(np.radians(rng.uniform(-angle_deg, angle_deg, (n, 3))))
     return R, tip - R @ geometry.tool

@@ -1,4 +1,4 @@
-"""The five measuring modes of spec seed-000 (Stewart platform calibration) as robocal residuals.
+"""The five measuring modes of Stewart platform calibration (docs/stewart_calibration.md) as robocal residuals.
 
 Each mode reuses a core residual on the platform frame, with the tool tip tau = (0, 0, -L) carried
 explicitly as the residual's (known) tip point and the probe's tip-ball radius r as its tip radius:
@@ -15,7 +15,7 @@ R = Rz(C) Ry(B) Rx(A) (Pinocchio's rpy). The pose residual compares rotations co
 (log3); its weights u_A, u_B, u_C weigh the rotation error about the measurement frame's X, Y, Z axes
 (= the A, B, C angle errors to first order near A = B = C = 0). Rows that measure the tilt but not C
 (u_C = 0, u_A = u_B > 0) become a tool-axis residual R e_z - R_meas e_z instead, which is exactly
-"tilt only" whatever the convention (spec §6.1): the spin about the tool axis is then unobserved.
+"tilt only" whatever the convention: the spin about the tool axis is then unobserved.
 """
 from __future__ import annotations
 
@@ -60,7 +60,7 @@ def angles(R: np.ndarray, convention: str = "xyz_intrinsic") -> np.ndarray:
     return np.array([np.arctan2(-R[1, 2], R[2, 2]), b, np.arctan2(-R[0, 1], R[0, 0])])
 
 
-def _rows(rows, width: int, source: str) -> np.ndarray:
+def numeric_rows(rows, width: int, source: str) -> np.ndarray:
     """(K, width) float rows; InputError naming the row and field of a bad cell."""
     try:
         m = np.asarray(rows, dtype=float)
@@ -78,13 +78,13 @@ def _rows(rows, width: int, source: str) -> np.ndarray:
 
 def pose_rows_to_xyzquat(rows, convention: str = "xyz_intrinsic", source: str = "pose rows") -> np.ndarray:
     """(K, 6) X Y Z A B C (m, rad) -> (K, 7) x y z qx qy qz qw: the PoseResidual's columns."""
-    m = _rows(rows, 6, source)
+    m = numeric_rows(rows, 6, source)
     return np.array([np.concatenate([r[:3], pin.Quaternion(rotation(r[3:], convention)).coeffs()]) for r in m])
 
 
 def xyzquat_to_pose_rows(m, convention: str = "xyz_intrinsic", source: str = "pose rows") -> np.ndarray:
     """(K, 7) x y z qx qy qz qw -> (K, 6) X Y Z A B C (m, rad)."""
-    m = _rows(m, 7, source)
+    m = numeric_rows(m, 7, source)
     out = []
     for r in m:
         qx, qy, qz, qw = r[3:] / np.linalg.norm(r[3:])
@@ -128,7 +128,7 @@ def pose_residuals(name: str, robot, samples, rows, weights, tool: Tool, sigma=(
     u_C = 0 and u_A = u_B > 0 are tilt-only and add a ToolAxisResidual `<name>[_g]_axis`.
     sigma = (position m, angle rad).
     """
-    m = _rows(rows, 6, source)
+    m = numeric_rows(rows, 6, source)
     samples = np.asarray(samples, dtype=int).reshape(-1)
     if len(samples) != len(m):
         raise InputError(f"{len(m)} rows but {len(samples)} samples", source=source, field="samples")

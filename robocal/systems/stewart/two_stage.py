@@ -1,4 +1,4 @@
-"""Two-stage calibration for large initial errors (spec seed-000 §3.12, §6.5 test 16).
+"""Two-stage calibration for large initial errors (docs/stewart_calibration.md).
 
 Stage 1 fits the inverse-kinematics residual (StrutIKResidual: closed-form strut length at the
 measured full pose minus the reading) on an OPEN copy of the Stewart model whose platform hangs on six
@@ -17,12 +17,15 @@ from lxml import etree
 
 from robocal.estimation.calibrate import CalibrationOptions, calibrate
 from robocal.errors import InputError
+from robocal.model.kinematics import ModelState
+from robocal.model.loops_urdf import read_loops
 from robocal.model.parameters import ParameterSet
 from robocal.estimation.problem import Problem
 from robocal.residuals.strut_ik import StrutIKResidual
 from robocal.estimation.result import CalibrationResult
 from robocal.model.robot import Robot
-from robocal.systems.stewart.modes import Tool, _rows, angles, rotation
+from robocal.systems.stewart.mechanism import configuration_from_pose, geometry_from_model
+from robocal.systems.stewart.modes import Tool, angles, numeric_rows, rotation
 
 POSE_JOINTS = ("pose_x", "pose_y", "pose_z", "pose_a", "pose_b", "pose_c")
 FLOATING = "platform_float"
@@ -31,7 +34,6 @@ FLOATING = "platform_float"
 def open_model(robot) -> Robot:
     """The Stewart robot with its floating platform replaced by six read 1-dof joints and no loops
     (the closure anchor frames `leg{j}_top.link1/.link2` are kept)."""
-    from robocal.model.loops_urdf import read_loops
     tree = etree.fromstring(robot.urdf_text.encode("utf-8"))
     joint = next((j for j in tree.findall("joint") if j.get("name") == FLOATING), None)
     if joint is None:
@@ -62,8 +64,8 @@ def ik_readings(tool_rows, struts, tool: Tool, convention: str = "xyz_intrinsic"
                 source: str = "pose rows") -> np.ndarray:
     """(K, 12) readings of the open model: platform X Y Z A B C (Rx Ry Rz) from measured tool-tip
     rows (K, 6) X Y Z A B C (in `convention`), then the six strut coordinates."""
-    rows = _rows(tool_rows, 6, source)
-    s = _rows(struts, 6, "struts")
+    rows = numeric_rows(tool_rows, 6, source)
+    s = numeric_rows(struts, 6, "struts")
     if len(s) != len(rows):
         raise InputError(f"{len(rows)} pose rows but {len(s)} strut rows", source=source)
     out = np.zeros((len(rows), 12))
@@ -114,12 +116,10 @@ def warm_start(problem: Problem, pose_samples, tool_rows, tool: Tool, convention
     """Seed the loop assembly of `problem`'s pose samples with the closed-form configuration at the
     measured poses for the current parameters (far from the nominal machine, Newton from the home
     pose may not reach the assembly; from the measured pose it starts next to it)."""
-    from robocal.model.kinematics import ModelState
-    from robocal.systems.stewart.mechanism import configuration_from_pose, geometry_from_model
     problem.warm_starts.clear()           # the old assemblies belong to the old parameters
     ms = ModelState(problem.robot, problem.params, problem.joint_names)
     geo = geometry_from_model(problem.robot, ms.model)
-    rows = _rows(tool_rows, 6, "pose rows")
+    rows = numeric_rows(tool_rows, 6, "pose rows")
     for i, r in zip(np.asarray(pose_samples, dtype=int).reshape(-1), rows):
         R = rotation(r[3:], convention)
         pose = pin.SE3(R, r[:3] - R @ tool.tip)

@@ -1,0 +1,133 @@
+"""Synthetic data sets of the five measuring modes at a stated noise, and the spec's accuracy statistic.
+
+The true machine is the nominal one with N(0, sigma) on each of the 42 parameters; every mode puts the
+tool tip where its reference object says (docs/stewart_calibration.md, "Example and benchmark") and
+records the struts the true machine reads there, with the platform turned up to +-15 deg. Noise: `sig_p`
+on positions, contact distances and ball-bar readings, `sig_a` on angles. The statistic is the spec's:
+the largest tool-tip error over fresh validation poses after the fit. Used by
+examples/stewart_calibration.py and benchmarks/stewart_calibration.py.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from robocal.estimation.calibrate import calibrate
+from robocal.estimation.problem import Problem
+from robocal.systems.stewart import calibration as sc
+from robocal.systems.stewart import modes as sm
+
+PLANES = [((0.0, 0.0, 0.25), (0.0, 0.0, 1.0)), ((0.12, 0.0, 0.33), (-1.0, 0.0, 0.3)),
+          ((0.0, -0.12, 0.33), (0.0, 1.0, 0.3))]
+# holes, balls and ball-bar bases spread over the workspace, holes 100 mm deep: data near a few
+# clustered points leave the rest of the workspace to extrapolation (3 shallow holes near the centre
+# gave 2-6 um instead of 1-2 um)
+HOLES = [((0.1, 0.0, 0.25), (0.0, 0.0, 1.0)), ((-0.05, 0.09, 0.25), (1.0, 0.0, 1.0)),
+         ((-0.05, -0.09, 0.25), (0.0, 1.0, 1.0)), ((0.0, 0.0, 0.35), (1.0, 1.0, 0.3))]
+HOLE_RADIUS = 0.01
+HOLE_DEPTH = 0.1
+BALLS = [(0.1, 0.0, 0.3), (-0.05, 0.09, 0.3), (-0.05, -0.09, 0.3), (0.0, 0.0, 0.42)]
+BALL_RADIUS = 0.0127
+BAR_BASES = [(0.1, 0.0, 0.2), (-0.05, 0.09, 0.2), (-0.05, -0.09, 0.2)]
+BAR_LENGTHS = (0.10, 0.15)
+BAR_ORIGIN_OFFSET = 0.0123
+
+
+def _unit(v) -> np.ndarray:
+    return np.asarray(v, dtype=float) / np.linalg.norm(v)
+
+
+@dataclass
+class ModeData:
+    residuals: list
+    struts: np.ndarray
+
+
+class ModeStudy:
+    """One simulated machine and its validation poses; each method returns a mode's data set, with
+    samples numbered from `first` so that sets can be stacked into one mixed fit."""
+
+    def __init__(self, robot, tool: sm.Tool, seed: int, sig_p: float = 1e-6, sig_a: float = 1e-6,
+                 sigma_parameters: float = 1e-3, n_validation: int = 50, noise: float = 1.0):
+        # noise multiplies the simulated noise (0: noise-free data, same stated sigmas, same draws)
+        self.robot, self.tool, self.sig_p, self.sig_a, self.noise = robot, tool, sig_p, sig_a, float(noise)
+        self.rng = np.random.default_rng(seed)
+        self.truth = sc.stewart_parameters()
+        for p in self.truth:
+            p.value = self.rng.normal(0.0, sigma_parameters)
+        self.true_geo = sc.geometry(robot, self.truth)
+        self.val_tips = sc.random_tips(n_validation, self.rng)
+        self.val_R = sc.random_orientations(n_validation, self.rng)[1]
+
+    def struts_at(self, tips) -> tuple[np.ndarray, np.ndarray]:
+        abc, R = sc.random_orientations(len(tips), self.rng)
+        return abc, sc.struts(self.true_geo, sc.tip_to_platform(tips, R, self.tool))
+
+    def full_poses(self, n: int, first: int = 0) -> ModeData:
+        tips = sc.random_tips(n, self.rng)
+        abc, s = self.struts_at(tips)
+        rows = np.column_stack([tips + self.noise * self.rng.normal(0, self.sig_p, (n, 3)),
+                                abc + self.noise * self.rng.normal(0, self.sig_a, (n, 3))])
+        return ModeData(sm.pose_residuals("pose", self.robot, np.arange(first, first + n), rows, 1, self.tool,
+                                          (self.sig_p, self.sig_a)), s)
+
+    def contacts(self, objects, n: int, first: int, touch) -> ModeData:
+        """n contacts on each object: touch(k, object, samples) -> (residual, tip centres); the struts are
+        read with the platform turned at random."""
+        parts = []
+        for k, obj in enumerate(objects):
+            residual, tips = touch(k, obj, np.arange(first + k * n, first + (k + 1) * n))
+            parts.append((residual, self.struts_at(tips)[1]))
+        return ModeData([r for r, _ in parts], np.vstack([s for _, s in parts]))
+
+    def planes(self, n: int, first: int = 0, objects=PLANES) -> ModeData:
+        def touch(k, obj, samples):
+            point, nrm = obj[0], _unit(obj[1])
+            tips = sc.plane_tips(point, nrm, self.tool, n, self.rng, span=0.15)
+            tips += np.outer(self.noise * self.rng.normal(0, self.sig_p, n), nrm)
+            return sm.plane_residual(f"plane{k}", samples, point, nrm, self.tool, self.sig_p), tips
+        return self.contacts(objects, n, first, touch)
+
+    def holes(self, n: int, first: int = 0, objects=HOLES) -> ModeData:
+        def touch(k, obj, samples):
+            c, a = np.asarray(obj[0], dtype=float), _unit(obj[1])
+            tips = sc.cylinder_tips(c, a, HOLE_RADIUS, self.tool, n, self.rng, kind="hole", depth=HOLE_DEPTH)
+            radial = tips - c - np.outer((tips - c) @ a, a)
+            noise = self.noise * self.rng.normal(0, self.sig_p, (n, 1))
+            tips += radial / np.linalg.norm(radial, axis=1, keepdims=True) * noise
+            return sm.cylinder_residual(f"hole{k}", samples, c, a, HOLE_RADIUS, self.tool, "hole", self.sig_p), tips
+        return self.contacts(objects, n, first, touch)
+
+    def balls(self, n: int, first: int = 0, objects=BALLS) -> ModeData:
+        def touch(k, c, samples):
+            d = BALL_RADIUS + self.tool.tip_radius + self.noise * self.rng.normal(0, self.sig_p, n)
+            tips = sc.sphere_tips(c, d, n, self.rng, min_up=0.0)
+            return sm.ball_residual(f"ball{k}", samples, c, BALL_RADIUS, self.tool, self.sig_p), tips
+        return self.contacts(objects, n, first, touch)
+
+    def ball_bar(self, n: int, first: int = 0, objects=BAR_BASES) -> ModeData:
+        def touch(k, c, samples):
+            length = self.rng.uniform(*BAR_LENGTHS, n)            # the bar swept over the upper half-sphere
+            tips = sc.sphere_tips(c, length, n, self.rng, min_up=0.0)
+            reading = length - BAR_ORIGIN_OFFSET + self.noise * self.rng.normal(0, self.sig_p, n)
+            return sm.ball_bar_residual(f"dbb{k}", samples, reading, c, self.tool, self.sig_p), tips
+        return self.contacts(objects, n, first, touch)
+
+    def fit(self, data: ModeData, fix_platform_joints: bool):
+        """Calibrate from nominal (T at its true value when fixed: measured on a CMM); returns the result
+        and the largest validation tool-tip error (m)."""
+        params = sc.stewart_parameters(fix_platform_joints=fix_platform_joints)
+        for p in params:
+            if not p.vary:
+                p.value = self.truth[p.name].value
+        result = calibrate(Problem(self.robot, params, sc.actuated(self.robot), data.struts, data.residuals))
+        return result, float(self.tip_errors(params).max())
+
+    def tip_errors(self, params) -> np.ndarray:
+        return sc.tip_errors(self.true_geo, sc.geometry(self.robot, params), self.tool, self.val_tips, self.val_R)
+
+
+def mix(parts: list[ModeData]) -> ModeData:
+    """Several modes' data in one fit (their samples must already be numbered consecutively)."""
+    return ModeData([r for p in parts for r in p.residuals], np.vstack([p.struts for p in parts]))
