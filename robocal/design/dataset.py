@@ -23,8 +23,8 @@ import numpy as np
 
 from robocal.design.simulate import perturb, random_configurations, simulate_measurements
 from robocal.errors import InputError
-from robocal.io.config import data_units, joint_columns, read_yaml, robot_from_config, setup_from_config
-from robocal.io.config_keys import Cfg, check_keys
+from robocal.io.config import data_units, joint_columns, read_checked_config, robot_from_config, setup_from_config
+from robocal.io.config_keys import Cfg
 from robocal.io.config_measurements import residual_class
 from robocal.io.config_sections import is_prismatic
 from robocal.io.tables import ANGLE_UNITS, LENGTH_UNITS, Table, write_csv
@@ -37,11 +37,7 @@ def simulate_dataset(config: str | Path, output: str | Path | None = None, seed:
                      force: bool = False) -> list[Path]:
     """Write the synthetic CSV (in the config's data units) and its truth JSON; returns both paths."""
     config = Path(config).resolve()
-    raw = read_yaml(config)
-    if not isinstance(raw, dict):
-        raise InputError("the config is empty or not a mapping of sections", source=str(config))
-    check_keys(raw, str(config))
-    root = Cfg(raw, "", str(config))
+    raw, root = read_checked_config(config)
     sim = root.child("simulation", {})
     sim.require_mapping()
     seed = sim.get("seed", 0, types=int) if seed is None else seed

@@ -29,8 +29,8 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from robocal.io.config import data_units, joint_columns, read_yaml, robot_from_config, setup_from_config
-from robocal.io.config_keys import Cfg, check_keys
+from robocal.io.config import data_units, joint_columns, read_checked_config, robot_from_config, setup_from_config
+from robocal.io.config_keys import Cfg
 from robocal.io.config_measurements import residual_class
 from robocal.io.config_sections import is_prismatic
 from robocal.io.tables import ANGLE_UNITS, LENGTH_UNITS, Table
@@ -78,11 +78,7 @@ def plan_from_config(path: str | Path, seed: int | None = None, scheduler: str |
     """The plan of a config; the accuracy curve's points (independent selections, no random draws) are
     computed on Dask when `scheduler` or `workers` is given (docs/fleet.md), identical to the serial run."""
     path = Path(path).resolve()
-    raw = read_yaml(path)
-    if not isinstance(raw, dict):
-        raise InputError("the config is empty or not a mapping of sections", source=str(path))
-    check_keys(raw, str(path))
-    root = Cfg(raw, "", str(path))
+    raw, root = read_checked_config(path)
     plan = root.child("plan", {})
     plan.require_mapping()
     base_dir = path.parent

@@ -26,7 +26,7 @@ from robocal.io.config_sections import (apply_parameter_overrides, approach_dire
 from robocal.io.tables import ANGLE_UNITS, LENGTH_UNITS, Table, read_csv
 from robocal.model.robot import Robot, load_example, load_urdf
 
-__all__ = ["Setup", "Cfg", "TOP_KEYS", "load_config", "read_yaml", "setup_from_config", "robot_from_config",
+__all__ = ["Setup", "Cfg", "TOP_KEYS", "load_config", "read_yaml", "read_checked_config", "setup_from_config", "robot_from_config",
            "default_joints", "data_units"]
 
 
@@ -63,6 +63,15 @@ def read_yaml(path: Path):
         where = "" if line is None else f" at line {line}"
         problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
         raise InputError(f"not valid YAML{where}: {problem}", source=str(path)) from None
+
+
+def read_checked_config(path: Path) -> tuple[dict, Cfg]:
+    """A config file parsed and checked key by key at every level: (the mapping, its root Cfg)."""
+    raw = read_yaml(path)
+    if not isinstance(raw, dict):
+        raise InputError("the config is empty or not a mapping of sections", source=str(path))
+    check_keys(raw, str(path))
+    return raw, Cfg(raw, "", str(path))
 
 
 def load_config(path: str | Path) -> Setup:
