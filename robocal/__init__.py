@@ -1,6 +1,22 @@
-"""robocal: calibrate robot models (serial arms and parallel machines) described by URDF."""
-from robocal.errors import InputError, RobocalError
-from robocal.model.robot import Robot, load_example, load_urdf
+"""robocal: calibrate robot models (serial arms and parallel machines) described by URDF.
 
-__all__ = ["Robot", "load_urdf", "load_example", "RobocalError", "InputError"]
+The names users call; docs/api.md lists them with the subpackages they come from.
+"""
+from robocal.design.simulate import perturb, random_configurations, simulate_measurements
+from robocal.errors import InputError, RobocalError
+from robocal.estimation.calibrate import CalibrationOptions, calibrate
+from robocal.estimation.problem import Problem
+from robocal.estimation.result import CalibrationResult
+from robocal.estimation.validation import evaluate_result
+from robocal.io.config import Setup, load_config
+from robocal.io.output import write_results
+from robocal.io.urdf_export import export_urdf
+from robocal.model.parameters import Parameter, ParameterSet, robot_parameters
+from robocal.model.robot import Robot, load_example, load_urdf
+from robocal.residuals import REGISTRY, Residual
+
+__all__ = ["Robot", "load_urdf", "load_example", "Parameter", "ParameterSet", "robot_parameters", "Setup",
+           "load_config", "Problem", "CalibrationOptions", "calibrate", "CalibrationResult", "evaluate_result",
+           "write_results", "export_urdf", "perturb", "random_configurations", "simulate_measurements", "Residual",
+           "REGISTRY", "RobocalError", "InputError"]
 __version__ = "0.1.0"
