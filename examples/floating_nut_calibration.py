@@ -12,14 +12,14 @@ from pathlib import Path
 import numpy as np
 
 import robocal
-from robocal.estimation.calibrate import calibrate
-from robocal.systems.floating_nut.calibration import floating_nut_parameters, uncompensated_robot
-from robocal.model.kinematics import ModelState
-from robocal.systems.floating_nut.geometry import reference_fixture
-from robocal.systems.floating_nut.kinematics import FloatingNutKinematics
-from robocal.estimation.problem import Problem
+from robocal import calibrate
+from robocal.systems.floating_nut import floating_nut_parameters, uncompensated_robot
+from robocal.model import ModelState
+from robocal.systems.floating_nut import reference_fixture
+from robocal.systems.floating_nut import FloatingNutKinematics
+from robocal.estimation import Problem
 from robocal.residuals import PoseResidual
-from robocal.design.simulate import simulate_measurements
+from robocal.design import simulate_measurements
 
 URDF = Path(__file__).resolve().parents[1] / "urdf" / "floating_nut_hexapod.urdf"
 SIGMA = (1e-5, 1e-5)

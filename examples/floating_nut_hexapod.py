@@ -9,9 +9,9 @@ import sys
 
 import numpy as np
 
-from robocal.systems.floating_nut.geometry import reference_fixture
-from robocal.systems.floating_nut.kinematics import FloatingNutKinematics
-from robocal.systems.floating_nut.urdf import write_urdf
+from robocal.systems.floating_nut import reference_fixture
+from robocal.systems.floating_nut import FloatingNutKinematics
+from robocal.systems.floating_nut import write_urdf
 
 DEG = np.pi / 180
 

@@ -16,10 +16,7 @@ import pinocchio as pin
 import robocal
 from robocal.dynamics import (ActuatorModel, Environment, ExternalForceEstimator, FrictionModel, MotionParams,
                               PathGenerator, RobotSimulator, TickDifferentiator, Wall, movelf, servo_gains)
-from robocal.dynamics.force_filter import ForceFilter
-from robocal.dynamics.force_loop import admittance_for_margins, margins, tangent_loop
-from robocal.dynamics.limits import project_limits
-from robocal.dynamics.path import CircularPath
+from robocal.dynamics import CircularPath, ForceFilter, admittance_for_margins, margins, project_limits, tangent_loop
 
 TS, F_DES, FILTER_HZ, STEADY = 0.004, 20.0, 10.0, 250
 robot = robocal.load_example("ur5")

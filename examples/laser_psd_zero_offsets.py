@@ -15,14 +15,13 @@ from pathlib import Path
 
 import numpy as np
 
-from robocal.model.kinematics import ModelState
-from robocal.model.parameters import robot_parameters
-from robocal.model.robot import load_urdf
-from robocal.systems.laser_psd.calibration import (LaserMount, calibrate_laser, offset_report,
-                                                   reading_noise_covariance, zero_offset_problem)
-from robocal.systems.laser_psd.monte_carlo import offset_monte_carlo
-from robocal.systems.laser_psd.plans import PlannedPose, multi_fan, patent_fan, plan_configurations
-from robocal.systems.laser_psd.simulation import PSD, SimRobot, acquire
+from robocal.model import ModelState
+from robocal.model import robot_parameters
+from robocal.model import load_urdf
+from robocal.systems.laser_psd import (LaserMount, calibrate_laser, offset_report, reading_noise_covariance, zero_offset_problem)
+from robocal.systems.laser_psd import offset_monte_carlo
+from robocal.systems.laser_psd import PlannedPose, multi_fan, patent_fan, plan_configurations
+from robocal.systems.laser_psd import PSD, SimRobot, acquire
 
 ROOT = Path(__file__).resolve().parents[1]
 SIGMA_READ = np.radians(0.0005)          # per single joint read (the spec's simulator), every joint

@@ -10,14 +10,12 @@ import sys
 
 import numpy as np
 
-from robocal.estimation.identifiability import select_base_parameters
+from robocal.estimation import select_base_parameters
 from robocal.systems.pcmm import error_model as pe
-from robocal.systems.pcmm.calibration import calibrate_pcmm, effective_rank, machine_jacobian, measurement_rows
-from robocal.systems.pcmm.compensation import first_order_pose_correction, validate
-from robocal.systems.pcmm.kinematics import (forward_kinematics, inverse_kinematics, random_workspace_poses,
-                                             reduced_names, tip_points)
-from robocal.systems.pcmm.machine import (reference_artefact, reference_geometry, reference_placements, reference_raw,
-                                          simulate_probing)
+from robocal.systems.pcmm import calibrate_pcmm, effective_rank, machine_jacobian, measurement_rows
+from robocal.systems.pcmm import first_order_pose_correction, validate
+from robocal.systems.pcmm import (forward_kinematics, inverse_kinematics, random_workspace_poses, reduced_names, tip_points)
+from robocal.systems.pcmm import (reference_artefact, reference_geometry, reference_placements, reference_raw, simulate_probing)
 
 seed = int(sys.argv[1]) if len(sys.argv) > 1 else 3
 nominal, artefact = reference_geometry(), reference_artefact()

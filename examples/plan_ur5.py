@@ -6,12 +6,12 @@ The same plan from a YAML file: `robocal plan CONFIG` (see docs/experiment_desig
 import numpy as np
 
 from robocal import load_example
-from robocal.design.selection import DesignMatrix, select_poses
-from robocal.design.candidates import MeasurementVolume, filter_candidates, random_candidates
-from robocal.model.kinematics import ModelState
-from robocal.model.parameters import ParameterSet, robot_parameters
-from robocal.design.prediction import pose_jacobians, predict_parameters, predict_pose_accuracy
-from robocal.estimation.problem import Problem
+from robocal.design import DesignMatrix, select_poses
+from robocal.design import MeasurementVolume, filter_candidates, random_candidates
+from robocal.model import ModelState
+from robocal.model import ParameterSet, robot_parameters
+from robocal.design import pose_jacobians, predict_parameters, predict_pose_accuracy
+from robocal.estimation import Problem
 from robocal.residuals import PoseResidual
 
 robot = load_example("ur5")

@@ -18,7 +18,7 @@ import numpy as np
 
 import robocal
 from robocal.systems.stewart import calibration as sc, modes as sm
-from robocal.systems.stewart.mode_study import BALLS, BAR_BASES, HOLES, PLANES, ModeStudy, mix
+from robocal.systems.stewart import BALLS, BAR_BASES, HOLES, PLANES, ModeStudy, mix
 
 DRAWS = 5
 N_CONTACTS = 100                          # contacts per reference object (modes 2-5)

@@ -26,8 +26,8 @@ from pathlib import Path
 
 import numpy as np
 
-from robocal.estimation.calibrate import calibrate
-from robocal.estimation.evaluation import (RANGE_MARGIN, cross_validate, edge_folds, kfold, posture_groups, range_excess,
+from robocal import calibrate
+from robocal.estimation import (RANGE_MARGIN, cross_validate, edge_folds, kfold, posture_groups, range_excess,
                                 setup_for_data, term_errors)
 
 HERE = Path(__file__).resolve().parent

@@ -2,6 +2,7 @@
 from robocal.io.lazy_exports import lazy_exports
 
 __getattr__, __all__ = lazy_exports(__name__, {
-    "selection": "DesignMatrix PoseSelection select_poses", "plan": "Plan plan_from_config write_plan",
-    "prediction": "predict_parameters predict_pose_accuracy",
-    "simulate": "perturb random_configurations simulate_measurements", "dataset": "simulate_dataset"})
+    "selection": "DesignMatrix PoseSelection select_poses",
+    "candidates": "filter_candidates MeasurementVolume random_candidates",
+    "simulate": "perturb random_configurations simulate_measurements", "plan": "Plan plan_from_config write_plan",
+    "prediction": "pose_jacobians predict_parameters predict_pose_accuracy", "dataset": "simulate_dataset"})

@@ -2,6 +2,6 @@
 from robocal.io.lazy_exports import lazy_exports
 
 __getattr__, __all__ = lazy_exports(__name__, {
-    "config": "Setup load_config setup_from_config", "tables": "Table read_csv write_csv",
-    "urdf_export": "calibrated_urdf export_urdf", "output": "write_results",
-    "text_files": "format_number format_numbers write_atomic"})
+    "urdf_export": "calibrated_urdf export_urdf", "text_files": "format_number format_numbers write_atomic",
+    "config": "load_config Setup setup_from_config", "tables": "read_csv Table write_csv",
+    "output": "write_results"})

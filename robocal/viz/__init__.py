@@ -6,5 +6,5 @@ meshcat and matplotlib are optional (`pip install robocal[viz]`): every name is 
 from robocal.io.lazy_exports import lazy_exports
 
 __getattr__, __all__ = lazy_exports(__name__, {
-    "meshcat_check": "SceneView write_static_html", "meshcat_page": "RecordingWindow",
-    "shapes": "arrows colour_scale nice_factor", "report": "write_report", "scene": "read_scene scene_bytes"})
+    "shapes": "arrows colour_scale nice_factor", "scene": "read_scene scene_bytes",
+    "meshcat_page": "RecordingWindow", "meshcat_check": "SceneView write_static_html", "report": "write_report"})

@@ -12,3 +12,8 @@ results, outliers and drift across units (docs/fleet.md).
 
 Dask and pyarrow are the optional [fleet] extra: they are imported inside the functions that need them.
 """
+from robocal.io.lazy_exports import lazy_exports
+
+__getattr__, __all__ = lazy_exports(__name__, {
+    "runner": "FleetRun run_fleet", "manifest": "FleetSpec UnitJob load_fleet", "engine": "map_tasks",
+    "report": "FleetReport fleet_report", "page": "fleet_page", "synthetic": "SimulatedFleet simulated_fleet"})
