@@ -110,3 +110,15 @@ def test_docstrings_cite_docs_pages_not_source_document_clauses():
     bad = [f"{path}" for path in MODULES.values()
            if "seed-00" in path.read_text(encoding="utf-8") or "seed 00" in path.read_text(encoding="utf-8")]
     assert not bad, "cite docs/<page>.md instead of the source documents' clause numbers: " + ", ".join(bad)
+
+
+def test_architecture_page_lists_every_module():
+    page = (PACKAGE.parent / "docs" / "architecture.md").read_text(encoding="utf-8")
+    tables = page.split("## Every module", 1)[1]
+    missing = []
+    for path in PACKAGE.rglob("*.py"):
+        folder = "/".join(path.relative_to(PACKAGE).parent.parts)
+        section = tables.split(f"**`robocal/{folder + '/' if folder else ''}`**", 1)
+        if len(section) < 2 or f"| `{path.name}` |" not in section[1].split("**`robocal/", 1)[0]:
+            missing.append(str(path.relative_to(PACKAGE)))
+    assert not missing, "docs/architecture.md's module table misses " + ", ".join(sorted(missing))
