@@ -44,13 +44,14 @@ def cmd_calibrate(args) -> int:
         print(f"robocal: {setup.robot.name}: {plural(len(p.values), 'sample')}, "
               f"{plural(sum(r.n_terms for r in p.residuals), 'measurement')} in {plural(len(p.residuals), 'block')}, "
               f"{plural(len(p.params.free_names), 'free parameter')}", file=sys.stderr)
-    before = p.params.copy()      # the scene shows the model before and after the fit
+    nominal = p.params.copy()
     result = calibrate(p, setup.options, progress=None if args.quiet else _progress,
                        source=", ".join(str(t.path) for t in setup.tables.values()))
-    extra = {"scene.json": scene_bytes(setup, result, before)}
+    # the scene's "before" is the model the "before" figures describe: the nominal robot, registered
+    extra = {"scene.json": scene_bytes(setup, result, result.registered_nominal(nominal))}
     iso = None
     if "iso9283" in setup.raw:
-        iso = iso9283_run(setup, before, p.params, result).to_dict()
+        iso = iso9283_run(setup, nominal, p.params, result).to_dict()
         extra["iso9283.json"] = (json.dumps(iso, indent=2) + "\n").encode()
     if not args.no_report and (setup.raw.get("output") or {}).get("report", True):
         try:

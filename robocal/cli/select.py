@@ -7,13 +7,11 @@ import sys
 from pathlib import Path
 
 from robocal.cli.cv import add_fold_arguments
-from robocal.errors import RobocalError
 from robocal.estimation.calibrate import calibrate
 from robocal.estimation.evaluation import portable_config, setup_for_data
 from robocal.estimation.model_selection import select_model
-from robocal.io.output import write_results
+from robocal.io.output import check_replaceable, write_results
 from robocal.viz.scene import scene_bytes
-
 
 def cmd_select(args) -> int:
     selection = select_model(args.config, args.folds, args.loo, args.group)
@@ -22,12 +20,10 @@ def cmd_select(args) -> int:
     rung = selection.rungs[selection.chosen]
     setup = setup_for_data(args.config, parameters=rung.parameters)
     out = Path(args.output).resolve() if args.output else setup.output_dir
-    if out.exists() and not args.force:
-        raise RobocalError(f"{out}: output folder exists; pass --force to replace it")
-    before = setup.problem.params.copy()      # the scene shows the model before and after the fit
+    check_replaceable(out, args.force)     # before the fit, not only after it
+    nominal = setup.problem.params.copy()
     result = calibrate(setup.problem, setup.options, source=str(args.config))
-    for name, value in result.registration_values.items():   # "before" = the registered nominal robot
-        before[name].value = value
+    before = result.registered_nominal(nominal)   # the scene shows the model before and after the fit
     extra = {"selection.json": (json.dumps(selection.to_dict(), indent=2, allow_nan=True) + "\n").encode(),
              "config.yaml": portable_config(args.config, rung.parameters),
              "scene.json": scene_bytes(setup, result, before)}
@@ -46,7 +42,6 @@ def cmd_select(args) -> int:
         print(f"\nrobocal: the chosen model's fit is {result.status}; no calibrated URDF written", file=sys.stderr)
         return 3
     return 0
-
 
 def add_parser(subparsers) -> None:
     s = subparsers.add_parser("select", help="choose a model by cross-validation (ladder + one-standard-error rule)")

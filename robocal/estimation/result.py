@@ -151,6 +151,14 @@ class CalibrationResult:
                          f"{self.condition_limit:.3g}; estimates along the weakest directions are unreliable.")
         return lines
 
+    def registered_nominal(self, nominal):
+        """A copy of the nominal ParameterSet with the registration frames at their "before" values: the
+        model the "before" figures describe (the scene draws it as "before")."""
+        before = nominal.copy()
+        for name, value in self.registration_values.items():
+            before[name].value = value
+        return before
+
     def to_dict(self) -> dict:
         return {
             "status": self.status,
