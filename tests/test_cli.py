@@ -135,3 +135,13 @@ def test_every_argument_has_help_text():
     missing = [f"{name} {' '.join(a.option_strings) or a.dest}" for name, p in sub.choices.items()
                for a in p._actions if not a.help]
     assert not missing
+
+
+def test_demo_twice_in_a_row_replaces_its_own_folder_but_not_a_foreign_one(tmp_path, monkeypatch):
+    """The README's first command must pass when run again; the default folder is the demo's own."""
+    monkeypatch.chdir(tmp_path)
+    assert main(["demo", "--no-report", "-q"]) == 0
+    assert main(["demo", "--no-report", "-q"]) == 0
+    (tmp_path / "robocal-demo-output" / "notes.txt").write_text("mine")
+    assert main(["demo", "--no-report", "-q"]) == 2          # a file robocal did not write: refused, kept
+    assert (tmp_path / "robocal-demo-output" / "notes.txt").read_text() == "mine"

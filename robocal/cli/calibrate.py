@@ -79,7 +79,10 @@ def cmd_calibrate(args) -> int:
 def cmd_demo(args) -> int:
     demo = files("robocal.io") / "demo" / "ur5_calibrate.yaml"
     args.config = str(demo)
-    args.output = args.output or "robocal-demo-output"
+    if not args.output:
+        # the default folder is the demo's own: a re-run replaces it, but only while it holds nothing but what
+        # robocal wrote there (the manifest rule of --force)
+        args.output, args.force = "robocal-demo-output", True
     return cmd_calibrate(args)
 
 
@@ -89,7 +92,8 @@ def add_parser(subparsers) -> None:
     c.add_argument("-o", "--output", help="output folder (default: the config's output.dir)")
     c.set_defaults(handler=cmd_calibrate)
     d = subparsers.add_parser("demo", help="calibrate a simulated UR5 from built-in data")
-    d.add_argument("-o", "--output", help="output folder (default: ./robocal-demo-output)")
+    d.add_argument("-o", "--output", help="output folder (default: ./robocal-demo-output, replaced by a re-run "
+                                          "while it holds only what robocal wrote)")
     d.set_defaults(handler=cmd_demo)
     for p in (c, d):
         p.add_argument("--force", action="store_true",
