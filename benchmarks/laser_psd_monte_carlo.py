@@ -1,6 +1,7 @@
 """Laser/PSD zero offsets: the spec's Monte-Carlo table against robocal, and what the spec leaves open.
 
 Run:  OMP_NUM_THREADS=1 python benchmarks/laser_psd_monte_carlo.py [--trials 200] [--step 15]
+          [--workers N | --scheduler ADDR]   (Monte-Carlo trials on Dask; same figures, one seed per trial)
 Prints (docs/laser_psd.md, "Accuracy"):
 1. RMS error per offset (deg) of a Monte Carlo at the spec's set-up (roll -90 deg), for two readings of
    "0.0005 deg joint-reading noise": per single read with 3 reads averaged (the spec's simulator), and per
@@ -54,6 +55,8 @@ def main():
     ap.add_argument("--trials", type=int, default=200)
     ap.add_argument("--step", type=float, default=15.0, help="roll step of the sweep, deg")
     ap.add_argument("--search", action="store_true", help="also search placements (part 3, slow)")
+    ap.add_argument("--workers", type=int, help="Monte-Carlo trials on a LocalCluster of N processes (Dask)")
+    ap.add_argument("--scheduler", help="Monte-Carlo trials on the Dask scheduler at ADDR (tcp://host:8786)")
     args = ap.parse_args()
     robot = load_urdf(ROOT / "urdf" / "abb_irb1600.urdf")
     joints = robot.joint_names
@@ -70,7 +73,8 @@ def main():
         print(f"{design:<12}{'spec':<34}{'':<10}" + "".join(f"{v:>11.2g}" for v in SPEC[design]))
         for label, n_reads, sigma in (("0.0005 deg per read, 3 averaged", 3, SIGMA),
                                       ("0.0005 deg per averaged reading", 1, SIGMA)):
-            mc = offset_monte_carlo(robot, joints, q, MOUNT, DELTA, sigma, n_reads, args.trials, seed=0)
+            mc = offset_monte_carlo(robot, joints, q, MOUNT, DELTA, sigma, n_reads, args.trials, seed=0,
+                                    scheduler=args.scheduler, workers=args.workers)
             for what, v in (("MC RMS", mc.rms), ("predicted", mc.predicted_sd)):
                 v = np.degrees(v)
                 print(f"{'':<12}{label:<34}{what:<10}" + "".join(f"{x:>11.2g}" for x in v)

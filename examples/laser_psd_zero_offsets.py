@@ -5,9 +5,11 @@ and device" (docs/laser_psd.md). Part 1 simulates one whole acquisition (the con
 nominal model; the true robot has zero offsets; the spot is servoed onto the PSD centre; every joint is
 read three times per pose, each read with 0.0005 deg of noise, and averaged), calibrates, and prints the
 offsets before/after. Part 2 is the accuracy table of docs/laser_psd.md: a 200-trial Monte Carlo of both
-designs under the same noise model, next to the linearised prediction and the spec's figures (markdown).
+designs under the same noise model, next to the linearised prediction and the spec's figures (markdown);
+trial k draws from the k-th child seed of SeedSequence(0), so --workers/--scheduler (Dask) print the same.
 Run:
     OMP_NUM_THREADS=1 python examples/laser_psd_zero_offsets.py [patent|three_fans] [--table-only]
+        [--workers N | --scheduler ADDR]
 """
 import argparse
 import logging
@@ -75,13 +77,14 @@ def one_acquisition(design: str) -> None:
     print("\n" + "\n".join(cal.statements + cal.result.identifiability_statements()))
 
 
-def accuracy_table() -> str:
+def accuracy_table(scheduler: str | None = None, workers: int | None = None) -> str:
     """Markdown: spec figure / robocal Monte Carlo / linearised prediction, per design and offset."""
     lines = [f"| design | offset | spec RMS (deg) | robocal RMS, {TRIALS} trials (deg) | robocal predicted sd (deg) | "
              "MC / spec |", "|---|---|---|---|---|---|"]
     for design, (label, make_plan) in DESIGNS.items():
         q = plan_configurations(robot, ms_true, joints, mount, make_plan(), psd_centre, direction, roll)
-        mc = offset_monte_carlo(robot, joints, q, mount, delta_true, SIGMA_READ, N_READS, TRIALS, seed=0)
+        mc = offset_monte_carlo(robot, joints, q, mount, delta_true, SIGMA_READ, N_READS, TRIALS, seed=0,
+                                scheduler=scheduler, workers=workers)
         for k, (name, spec) in enumerate(zip(mc.names, SPEC[design])):
             rms, sd = np.degrees(mc.rms[k]), np.degrees(mc.predicted_sd[k])
             lines.append(f"| {label} | {name.split('.')[0]} | {spec:g} | {rms:.2g} | {sd:.2g} | {rms / spec:.2f} |")
@@ -92,11 +95,13 @@ if __name__ == "__main__":
     ap = argparse.ArgumentParser()
     ap.add_argument("design", nargs="?", default="three_fans", choices=sorted(DESIGNS))
     ap.add_argument("--table-only", action="store_true", help="print only the accuracy table")
+    ap.add_argument("--workers", type=int, help="spread the trials over a LocalCluster of N processes (Dask)")
+    ap.add_argument("--scheduler", help="spread the trials over the Dask scheduler at ADDR (tcp://host:8786)")
     args = ap.parse_args()
     if not args.table_only:
         one_acquisition(args.design)
     print(f"\nAccuracy, {TRIALS}-trial Monte Carlo, {np.degrees(SIGMA_READ):g} deg noise per joint read, "
           f"{N_READS} reads averaged per pose (how computed: offset_monte_carlo on readings at which the true "
           f"beams pass through the PSD centre; predicted sd: reading_noise_covariance):\n")
-    print(accuracy_table())
+    print(accuracy_table(args.scheduler, args.workers))
     logging.shutdown()

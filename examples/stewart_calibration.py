@@ -7,18 +7,20 @@ spec's noise (1 um on positions, contact distances and ball-bar readings, 1 urad
 judged like the spec's headline: the largest tool-tip error over 50 fresh validation poses. Modes 2-5
 measure the tip's position only, so alone they cannot see the platform joints T turn about the tip: as
 in the patent, T is then measured beforehand (fixed at its true value) and 24 parameters are fitted.
-Every row is repeated on DRAWS simulated machines (median and worst shown; about 1.5 min of one core).
+Every row is repeated on DRAWS simulated machines (median and worst shown; about 1.5 min of one core),
+machine k drawn from the k-th child seed of SeedSequence(0): the same figures serially and on Dask.
 Prints the markdown table
 (spec figure / robocal figure / how computed) of the docs page. Run:
-    OMP_NUM_THREADS=1 python examples/stewart_calibration.py
+    OMP_NUM_THREADS=1 python examples/stewart_calibration.py [--workers N | --scheduler ADDR]
 """
+import argparse
 from pathlib import Path
 
 import numpy as np
 
 import robocal
-from robocal.systems.stewart import calibration as sc, modes as sm
-from robocal.systems.stewart import BALLS, BAR_BASES, HOLES, PLANES, ModeStudy, mix
+from robocal.systems.stewart import modes as sm
+from robocal.systems.stewart import BALLS, BAR_BASES, HOLES, PLANES, ModeStudy, fit_machines, mix
 
 DRAWS = 5
 N_CONTACTS = 100                          # contacts per reference object (modes 2-5)
@@ -56,24 +58,41 @@ ROWS = [  # label, data set, T fixed, spec figure (um), how the spec figure rela
      HEADLINE[12], "spec: mode 1 on its 12 poses (the contacts come on top)"),
 ]
 
-# machine k (true parameters, validation poses) is the same in every row; each row draws its data afresh
-before = [ModeStudy(robot, tool, seed).tip_errors(sc.stewart_parameters()).max() for seed in range(DRAWS)]
-print(f"tool-tip error before calibration: {np.median(before) * 1e3:.2f} mm median of {DRAWS} machines "
-      f"(max over 50 validation poses; spec: 7 mm)\n")
-table = []
-for label, make, fix_t, spec, how in ROWS:
-    tips, ranks = [], set()
-    for seed in range(DRAWS):
-        study = ModeStudy(robot, tool, seed)
-        result, tip = study.fit(make(study), fix_t)
-        tips.append(tip * 1e6)
-        ranks.add(result.selection.rank)
-    med, worst = float(np.median(tips)), max(tips)
-    print(f"{label:<80} rank {'/'.join(map(str, sorted(ranks))):>5}  tip error median {med:5.2f} um, worst "
-          f"{worst:5.2f} um  (spec {spec} um: {med / spec:.2f}x)")
-    table.append(f"| {label} | {spec} | {med:.2f} (worst {worst:.2f}) | max over 50 fresh poses, median of "
-                 f"{DRAWS} simulated machines; {how} |")
-print("\n| data (1 um / 1 urad noise) | spec figure: max tip error (um) | robocal figure (um) | how computed |")
-print("|---|---|---|---|")
-print("\n".join(table))
-print(f"| before calibration | 7000 | {np.median(before) * 1e6:.0f} | same validation poses, nominal model |")
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--workers", type=int, help="spread the machines over a LocalCluster of N processes (Dask)")
+    ap.add_argument("--scheduler", help="spread the machines over the Dask scheduler at ADDR (tcp://host:8786)")
+    args = ap.parse_args()
+    if args.workers and not args.scheduler:
+        # one LocalCluster for all rows (fit_machines(workers=N) would start one per row); the [fleet] extra
+        from dask.distributed import LocalCluster
+        with LocalCluster(n_workers=args.workers, threads_per_worker=1, dashboard_address=":0",
+                          env={"OMP_NUM_THREADS": "1"}) as cluster:
+            print_table(cluster.scheduler_address)
+    else:
+        print_table(args.scheduler)
+
+
+def print_table(scheduler):
+    engine = dict(scheduler=scheduler)
+    # machine k (true parameters, validation poses) is the same in every row; each row draws its data afresh
+    before = [tip for tip, _ in fit_machines(robot, tool, None, False, DRAWS, seed=0, **engine)]
+    print(f"tool-tip error before calibration: {np.median(before) * 1e3:.2f} mm median of {DRAWS} machines "
+          f"(max over 50 validation poses; spec: 7 mm)\n")
+    table = []
+    for label, make, fix_t, spec, how in ROWS:
+        fits = fit_machines(robot, tool, make, fix_t, DRAWS, seed=0, **engine)
+        tips, ranks = [tip * 1e6 for tip, _ in fits], {rank for _, rank in fits}
+        med, worst = float(np.median(tips)), max(tips)
+        print(f"{label:<80} rank {'/'.join(map(str, sorted(ranks))):>5}  tip error median {med:5.2f} um, worst "
+              f"{worst:5.2f} um  (spec {spec} um: {med / spec:.2f}x)")
+        table.append(f"| {label} | {spec} | {med:.2f} (worst {worst:.2f}) | max over 50 fresh poses, median of "
+                     f"{DRAWS} simulated machines; {how} |")
+    print("\n| data (1 um / 1 urad noise) | spec figure: max tip error (um) | robocal figure (um) | how computed |")
+    print("|---|---|---|---|")
+    print("\n".join(table))
+    print(f"| before calibration | 7000 | {np.median(before) * 1e6:.0f} | same validation poses, nominal model |")
+
+
+if __name__ == "__main__":   # Dask starts its worker processes by importing this file again
+    main()

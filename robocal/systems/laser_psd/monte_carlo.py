@@ -3,10 +3,12 @@
 Noise model (the spec's simulator): every single joint read carries Gaussian noise of sd `sigma_read`
 (rad, every joint); a pose's reading is the mean of `n_reads` such reads, so it carries sigma_read /
 sqrt(n_reads). The statistic reported is the RMS of the estimation error over the trials, per offset,
-next to the linearised prediction (reading_noise_covariance) of the same quantity.
+next to the linearised prediction (reading_noise_covariance) of the same quantity. Trial k draws its
+noise from its own seed (robocal.estimation.fleet.seeded), so the study runs the same on a Dask cluster.
 """
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass
 
 import numpy as np
@@ -14,6 +16,8 @@ import pinocchio as pin
 
 from robocal.errors import InputError, RobocalError
 from robocal.estimation.calibrate import CalibrationOptions, calibrate
+from robocal.estimation.fleet.seeded import monte_carlo
+from robocal.estimation.problem import Problem
 from robocal.model.kinematics import ModelState
 from robocal.residuals.base import basis_from_normal
 from robocal.systems.laser_psd.calibration import reading_noise_covariance, zero_offset_problem
@@ -38,12 +42,34 @@ def averaged_reading_noise(rng, shape, sigma_read: float, n_reads: int) -> np.nd
     return rng.normal(0.0, sigma_read, (int(n_reads),) + tuple(shape)).mean(axis=0)
 
 
+@dataclass
+class OffsetTrial:
+    """One Monte-Carlo trial: noisy readings, a fit from the noise-free solution, the offsets' errors.
+    Works on its own copy of the problem, so trials are independent of each other and of their order."""
+    problem: Problem              # solved on the noise-free readings
+    exact_readings: np.ndarray
+    sigma_read: float
+    n_reads: int
+    names: list[str]
+    truth: dict
+
+    def __call__(self, rng: np.random.Generator) -> list[float]:
+        problem = copy.deepcopy(self.problem)
+        problem.values = self.exact_readings + averaged_reading_noise(rng, self.exact_readings.shape,
+                                                                      self.sigma_read, self.n_reads)
+        calibrate(problem)
+        return [problem.params[n].value - self.truth[n] for n in self.names]
+
+
 def offset_monte_carlo(robot, joints, exact_readings, mount, truth_offsets, sigma_read: float, n_reads: int = 3,
-                       trials: int = 40, seed: int = 0, fixed_joints=None) -> MonteCarloResult:
+                       trials: int = 40, seed: int = 0, fixed_joints=None, scheduler: str | None = None,
+                       workers: int | None = None) -> MonteCarloResult:
     """Fit the offsets on `trials` noisy copies of `exact_readings` (readings at which the true beams pass
     exactly through the PSD centre). truth_offsets: (len(joints),) rad. Joint 1 is held (it is a gauge of
     the unknown point) unless `fixed_joints` says otherwise; every other offset is reported.
-    Each trial starts from the noise-free solution, so the spread is the noise's alone."""
+    Each trial starts from the noise-free solution, so the spread is the noise's alone. Trial k's noise
+    comes from the k-th child of SeedSequence(seed); `scheduler`/`workers` spread the trials over Dask
+    (docs/fleet.md) with the same results as the serial run."""
     fixed = [joints[0]] if fixed_joints is None else list(fixed_joints)
     problem = zero_offset_problem(robot, joints, exact_readings, mount, fixed_joints=fixed)
     calibrate(problem, CalibrationOptions(regularisation="none"))   # what the data alone determine
@@ -51,15 +77,9 @@ def offset_monte_carlo(robot, joints, exact_readings, mount, truth_offsets, sigm
     free = problem.params.free_names
     idx = [free.index(n) for n in names]
     cov = reading_noise_covariance(problem, sigma_read / np.sqrt(n_reads))
-    x_hat = problem.params.free_values()
     truth = dict(zip([f"{j}.offset" for j in joints], np.asarray(truth_offsets, dtype=float)))
-    rng = np.random.default_rng(seed)
-    errors = []
-    for _ in range(int(trials)):
-        problem.values = exact_readings + averaged_reading_noise(rng, exact_readings.shape, sigma_read, n_reads)
-        problem.params.set_free_values(x_hat)
-        calibrate(problem)
-        errors.append([problem.params[n].value - truth[n] for n in names])
+    trial = OffsetTrial(problem, np.asarray(exact_readings, dtype=float), sigma_read, n_reads, names, truth)
+    errors = monte_carlo(trial, int(trials), seed, scheduler, workers)
     return MonteCarloResult(names, np.array(errors).reshape(int(trials), len(names)),
                             np.sqrt(np.diag(cov)[idx]))
 

@@ -3,4 +3,4 @@ calibration (docs/stewart_calibration.md)."""
 from robocal.io.lazy_exports import lazy_exports
 
 __getattr__, __all__ = lazy_exports(__name__, {
-    "mode_study": "BALLS BAR_BASES HOLES mix ModeStudy PLANES"})
+    "mode_study": "BALLS BAR_BASES HOLES fit_machines mix ModeStudy PLANES"})

@@ -5,16 +5,23 @@ tool tip where its reference object says (docs/stewart_calibration.md, "Example 
 records the struts the true machine reads there, with the platform turned up to +-15 deg. Noise: `sig_p`
 on positions, contact distances and ball-bar readings, `sig_a` on angles. The statistic is the spec's:
 the largest tool-tip error over fresh validation poses after the fit. Used by
-examples/stewart_calibration.py and benchmarks/stewart_calibration.py.
+examples/stewart_calibration.py and benchmarks/stewart_calibration.py. Machine k of a study draws from
+its own seed (robocal.estimation.fleet.seeded), so `fit_machines` gives the same figures in this process
+and on a Dask cluster (docs/fleet.md).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from functools import lru_cache
+from typing import Callable
 
 import numpy as np
 
 from robocal.estimation.calibrate import calibrate
+from robocal.estimation.fleet.seeded import monte_carlo
 from robocal.estimation.problem import Problem
+from robocal.errors import InputError
+from robocal.model.robot import load_urdf
 from robocal.systems.stewart import calibration as sc
 from robocal.systems.stewart import modes as sm
 
@@ -48,8 +55,9 @@ class ModeStudy:
     """One simulated machine and its validation poses; each method returns a mode's data set, with
     samples numbered from `first` so that sets can be stacked into one mixed fit."""
 
-    def __init__(self, robot, tool: sm.Tool, seed: int, sig_p: float = 1e-6, sig_a: float = 1e-6,
+    def __init__(self, robot, tool: sm.Tool, seed, sig_p: float = 1e-6, sig_a: float = 1e-6,
                  sigma_parameters: float = 1e-3, n_validation: int = 50, noise: float = 1.0):
+        # seed: anything numpy's default_rng takes (an int, a SeedSequence or a Generator, used as is)
         # noise multiplies the simulated noise (0: noise-free data, same stated sigmas, same draws)
         self.robot, self.tool, self.sig_p, self.sig_a, self.noise = robot, tool, sig_p, sig_a, float(noise)
         self.rng = np.random.default_rng(seed)
@@ -131,3 +139,47 @@ class ModeStudy:
 def mix(parts: list[ModeData]) -> ModeData:
     """Several modes' data in one fit (their samples must already be numbered consecutively)."""
     return ModeData([r for p in parts for r in p.residuals], np.vstack([p.struts for p in parts]))
+
+
+@lru_cache(maxsize=4)
+def robot_from_file(urdf_path: str, package_dirs: tuple):
+    """The machine a Dask worker rebuilds from its URDF, once per process (Pinocchio's closures do not pickle)."""
+    return load_urdf(urdf_path, list(package_dirs))
+
+
+@dataclass
+class MachineFit:
+    """One repetition of a mode study: a simulated machine drawn from `rng`, its data set make(study),
+    the fit; returns (largest validation tool-tip error (m), rank of the fit). make=None: the machine's
+    error before calibration (nominal model) and rank 0. Pickled (for Dask) with the robot's URDF path in
+    place of the robot, which the worker loads again."""
+    robot: object
+    tool: sm.Tool
+    make: Callable | None
+    fix_platform_joints: bool = False
+    study_options: dict = field(default_factory=dict)   # ModeStudy's sig_p, sig_a, sigma_parameters, ...
+
+    def __getstate__(self):
+        if self.robot.urdf_path is None:
+            raise InputError("a Stewart study spread over Dask needs a robot loaded from a URDF file", field="robot")
+        return {**self.__dict__, "robot": (str(self.robot.urdf_path), tuple(map(str, self.robot.package_dirs)))}
+
+    def __setstate__(self, state):
+        self.__dict__.update(state, robot=robot_from_file(*state["robot"]))
+
+    def __call__(self, rng: np.random.Generator) -> tuple[float, int]:
+        study = ModeStudy(self.robot, self.tool, rng, **self.study_options)
+        if self.make is None:
+            return float(study.tip_errors(sc.stewart_parameters()).max()), 0
+        result, tip = study.fit(self.make(study), self.fix_platform_joints)
+        return tip, int(result.selection.rank)
+
+
+def fit_machines(robot, tool: sm.Tool, make, fix_platform_joints: bool, machines: int, seed=0,
+                 scheduler: str | None = None, workers: int | None = None, **study_options) -> list[tuple[float, int]]:
+    """[(largest validation tip error (m), rank)] of `machines` simulated machines, each fitted on its data
+    set make(study) (make=None: errors before calibration). Machine k draws from the k-th child of
+    SeedSequence(seed), the same machine in every call with that seed; `scheduler`/`workers` spread the
+    machines over Dask with the same results as the serial run."""
+    return monte_carlo(MachineFit(robot, tool, make, fix_platform_joints, study_options), machines, seed,
+                       scheduler, workers)
