@@ -136,7 +136,7 @@ class Problem:
                 rows = slice(block.rows.start + k0 * n_keep, block.rows.start + terms.stop * n_keep)
                 group = gid + np.repeat(np.arange(k0, terms.stop), n_keep)
                 if batch is not None and res.batched:
-                    fa = batch.frame(res.frame, res.samples[terms])
+                    fa = batch.frame(res.frame, res.samples[terms], jacobian)
                     t = res.evaluate_batch(terms, fa.R, fa.p, aux)
                     Jt = None
                     if jacobian:
