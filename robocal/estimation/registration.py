@@ -20,7 +20,7 @@ from robocal.estimation.identifiability import select_base_parameters
 from robocal.estimation.physical_scale import is_registration, measured_frames
 from robocal.estimation.regularisation import choose_strength
 from robocal.estimation.result import block_statistics
-from robocal.estimation.solve import levenberg_marquardt
+from robocal.estimation.solve import levenberg_marquardt, triangle
 
 
 @dataclass
@@ -134,11 +134,19 @@ def apply_default_prior(problem, registered: Registered, scales, rtol: float) ->
         params.set_values(start)
         problem.warm_starts = warm
     rows = data_rows(problem, len(ev.r))
-    J, r = ev.J[rows], ev.r[rows]
+    # the data rows enter only through inner products of [J r]'s columns: its triangle T (T^T T = [J r]^T [J r])
+    # serves the selection and the evidence in place of the m rows, from one factorisation
+    # (fewer rows than columns: the rows themselves, so no zero row of a padded triangle enters the evidence)
+    n_rows = int(rows.sum())
+    if n_rows > len(free):
+        T = triangle(ev.J, ev.r, None, len(free), rows)
+        J, r = T[:, :-1], T[:, -1]
+    else:
+        J, r, n_rows = ev.J[rows], ev.r[rows], None
     sel = select_base_parameters(J, free, rtol)
     kept = [free[j] for j in sel.independent]
     sc = np.array([scales.scale[n] if n in candidates else np.inf for n in kept])
-    evd = choose_strength(J[:, sel.independent], r, sc)
+    evd = choose_strength(J[:, sel.independent], r, sc, n_rows=n_rows)
     # looseness is a property of the design: judged at the stated sigmas, not at the measured noise, which
     # a model far from the data (a poor nominal, a wrong model) inflates
     at_stated = evd.stderr / np.sqrt(evd.noise2) if evd.noise2 > 0 else evd.stderr
