@@ -102,7 +102,8 @@ class Problem:
         self.blocks = self.layout()  # priors may have been switched on or off
         m = self.blocks[-1].rows.stop if self.blocks else 0
         n_free = len(self.params.free_names)
-        ev = Evaluation(np.empty(m), np.zeros((m, n_free)) if jacobian else None, np.empty(m), np.empty(m, int))
+        # every row is written below (each piece fills its rows): no zeroing pass
+        ev = Evaluation(np.empty(m), np.empty((m, n_free)) if jacobian else None, np.empty(m), np.empty(m, int))
         for rows, r, raw, group, J in self.pieces(jacobian, out=ev.J):
             ev.r[rows], ev.raw[rows], ev.group[rows] = r, raw, group
             if jacobian and not np.may_share_memory(J, ev.J):
@@ -141,11 +142,11 @@ class Problem:
                     Jt = None
                     if jacobian:
                         direct = out is not None and n_keep == res.dim
-                        Jt = np.matmul(t.D, fa.jacobian, out=out[rows].reshape(n_t, res.dim, n_free) if direct
-                                       else None)
+                        # the row scales folded into the (n, dim, 6) derivative: no extra pass over J
+                        Jt = np.matmul(t.D * scale[:, None], fa.jacobian,
+                                       out=out[rows].reshape(n_t, res.dim, n_free) if direct else None)
                         for j, c, w in aux_cols:
-                            Jt[:, :, c] += w * t.aux[:, :, j]
-                        Jt *= scale[:, None]
+                            Jt[:, :, c] += w * t.aux[:, :, j] * scale
                         Jt = (Jt if n_keep == res.dim else Jt[:, keep]).reshape(n_t * n_keep, n_free)
                     raw = t.r if n_keep == res.dim else t.r[:, keep]
                     yield rows, (raw * scale[keep]).ravel(), raw.ravel(), group, Jt

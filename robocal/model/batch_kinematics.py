@@ -172,9 +172,9 @@ class BatchKinematics:
             reg = self.regressors(parent, unique)
             j0 = model.supports[parent][1]
             block = reg[:, :, 6 * (j0 - 1):6 * j0]     # Ad(X_j0), X_j0 = oMi^-1 jointPlacement(j0)
-            RX = block[:, 3:, 3:]
-            pX_cross = block[:, :3, 3:] @ transpose(RX)
-            pX = np.stack([pX_cross[:, 2, 1], pX_cross[:, 0, 2], pX_cross[:, 1, 0]], axis=-1)
+            RX, B = block[:, 3:, 3:], block[:, :3, 3:]         # B = [pX]x RX: pX's entries from three rows
+            pX = np.stack([np.einsum("nk,nk->n", B[:, 2], RX[:, 1]), np.einsum("nk,nk->n", B[:, 0], RX[:, 2]),
+                           np.einsum("nk,nk->n", B[:, 1], RX[:, 0])], axis=-1)
             root = model.jointPlacements[j0]
             Ri = root.rotation @ transpose(RX)
             pi = root.translation - np.einsum("nij,nj->ni", Ri, pX)
@@ -211,8 +211,9 @@ class BatchKinematics:
                 for k, iv, c, w in ms.backlash_cols:            # d q_link / d b = d
                     Jj[:, :, c] += w * Jq[:, :, iv] * self.directions[samples, k][:, None]
             np.matmul(model.frames[fid].placement.inverse().toActionMatrix(), Jj, out=J)
-        if fid in ms.P_frame:
-            J += ms.P_frame[fid]
+        if fid in ms.P_frame:                  # constant columns: only the frame's own
+            cols = np.flatnonzero(np.any(ms.P_frame[fid] != 0.0, axis=0))
+            J[:, :, cols] += ms.P_frame[fid][:, cols]
         if ms.has_base_params:
             cols = np.flatnonzero(np.any(ms.P_base != 0.0, axis=0))    # the base's own columns only
             if cols[-1] - cols[0] + 1 == len(cols):
