@@ -17,6 +17,7 @@ from typing import Callable
 import numpy as np
 
 from robocal.errors import IdentifiabilityError, InputError
+from robocal.estimation.chunked_lstsq import evaluator
 from robocal.estimation.determinacy import classify
 from robocal.estimation.identifiability import covariance, select_base_parameters
 from robocal.estimation.physical_scale import (DETERMINED_ANGLE, DETERMINED_LENGTH,
@@ -46,6 +47,8 @@ class CalibrationOptions:
     determined_length: float = DETERMINED_LENGTH   # m: standard error below which a length is determined
     determined_angle: float = DETERMINED_ANGLE     # rad: the same for an angle
     register_before: bool = True     # "before" figures after registering the nominal model (else: as given)
+    chunk_terms: int | None = None   # terms a chunk when the Jacobian is kept as its triangle (None: automatic
+                                     # above chunked_lstsq.LARGE_JACOBIAN entries; 0: never)
 
 
 def calibrate(problem: Problem, options: CalibrationOptions | None = None,
@@ -68,9 +71,10 @@ def calibrate(problem: Problem, options: CalibrationOptions | None = None,
     if not np.all(np.isfinite(ev0.r)):
         raise IdentifiabilityError(f"{source}: the residuals are not finite at the initial parameters")
     registered = register_nominal(problem, opt) if opt.register_before or opt.regularisation == "auto" else None
-    default_prior = (apply_default_prior(problem, registered, scales, opt.rank_rtol)
+    default_prior = (apply_default_prior(problem, registered, scales, opt.rank_rtol, opt.chunk_terms)
                      if opt.regularisation == "auto" else DefaultPrior("none", False))
-    ev0 = problem.evaluate()           # after the registration: the layout of the full free set, with any prior
+    evaluate, chunked = evaluator(problem, opt.chunk_terms)   # chunked: J is only ever its triangle
+    ev0 = evaluate()                   # after the registration: the layout of the full free set, with any prior
     m = len(ev0.r)
     before = registered.before if registered is not None and opt.register_before else block_statistics(problem, ev0)
 
@@ -81,7 +85,7 @@ def calibrate(problem: Problem, options: CalibrationOptions | None = None,
             ev = last["ev"]
             return ev.r, ev.J, ev.group
         params.set_free_values(x)
-        ev = problem.evaluate()
+        ev = evaluate()
         last["x"], last["ev"] = np.array(x), ev
         return ev.r, ev.J, ev.group
 
@@ -99,8 +103,10 @@ def calibrate(problem: Problem, options: CalibrationOptions | None = None,
     prior_only = [requested[j] for j in first.dependent if j in with_prior]
     selection = _apply_selection(params, requested, None, opt.rank_rtol, first.keep_also(with_prior))
     kept = [requested.index(n) for n in params.free_names]          # the solver starts where ev0 was taken
-    last["x"], last["ev"] = params.free_values(), Evaluation(ev0.r, ev0.J[:, kept], ev0.raw, ev0.group)
-    first_triangle = columns_triangle(start, kept, ev0, start_rows)
+    first_triangle = None
+    if not chunked:
+        last["x"], last["ev"] = params.free_values(), Evaluation(ev0.r, ev0.J[:, kept], ev0.raw, ev0.group)
+        first_triangle = columns_triangle(start, kept, ev0, start_rows)
     for _attempt in range(MAX_SELECTION_PASSES):
         log.info("calibrating %d of %d requested parameters from %d rows", selection.rank, len(requested), m)
         lo, hi = params.free_bounds()
@@ -114,7 +120,7 @@ def calibrate(problem: Problem, options: CalibrationOptions | None = None,
         for name in requested:
             params[name].vary = True
         allowed = set(selection.independent) | set(hidden)
-        ev_all = problem.evaluate()
+        ev_all = evaluate()
         again = select_base_parameters(triangle(ev_all.J, ev_all.r, None, len(requested), start_rows)[:-1, :-1],
                                        requested, opt.rank_rtol, allowed).keep_also(with_prior)
         if again.independent == selection.independent:   # same set; explain it as seen at the solution
@@ -125,7 +131,7 @@ def calibrate(problem: Problem, options: CalibrationOptions | None = None,
         selection = _apply_selection(params, requested, None, opt.rank_rtol, again)
     x = params.free_values()
     reuse = "x" in last and last["x"].shape == x.shape and np.array_equal(last["x"], x)
-    ev = last["ev"] if reuse else problem.evaluate()   # the solver's last evaluation is at the solution
+    ev = last["ev"] if reuse else evaluate()   # the solver's last evaluation is at the solution
     after = block_statistics(problem, ev)
     n = len(sol.x)
     dof = m - n

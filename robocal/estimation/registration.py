@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from robocal.estimation.chunked_lstsq import evaluator
 from robocal.estimation.identifiability import select_base_parameters
 from robocal.estimation.physical_scale import is_registration, measured_frames
 from robocal.estimation.regularisation import choose_strength
@@ -76,9 +77,11 @@ def fit_subset(problem, names: list[str], options):
         for n in fixed_now:
             params[n].vary = True
 
+        evaluate = evaluator(problem, options.chunk_terms)[0]
+
         def fun(x):
             params.set_free_values(x)
-            ev = problem.evaluate()
+            ev = evaluate()
             return ev.r, ev.J, ev.group
 
         sol = levenberg_marquardt(fun, params.free_values(), *params.free_bounds(), loss=options.loss,
@@ -115,8 +118,10 @@ def register_nominal(problem, options) -> Registered:
     return Registered(reg, values, before, message)
 
 
-def apply_default_prior(problem, registered: Registered, scales, rtol: float) -> DefaultPrior:
-    """Add the evidence-scaled physical prior to the kept robot parameters if the data leave one loose."""
+def apply_default_prior(problem, registered: Registered, scales, rtol: float,
+                        chunk_terms: int | None = None) -> DefaultPrior:
+    """Add the evidence-scaled physical prior to the kept robot parameters if the data leave one loose.
+    chunk_terms: as CalibrationOptions.chunk_terms (robocal.estimation.chunked_lstsq.evaluator)."""
     params = problem.params
     free = params.free_names
     candidates = {n for n in free if n in scales.scale and params[n].prior_sigma is None}
@@ -129,7 +134,7 @@ def apply_default_prior(problem, registered: Registered, scales, rtol: float) ->
         for k, n in enumerate(free):
             x[k] = registered.values.get(n, x[k])
         params.set_free_values(x)               # followers of the registration frames move with them
-        ev = problem.evaluate()
+        ev = evaluator(problem, chunk_terms)[0]()
     finally:
         params.set_values(start)
         problem.warm_starts = warm

@@ -179,13 +179,13 @@ QR_ROWS = 2000   # rows per block of `triangle`: a block's QR stays in cache (me
 
 def triangle(J, r: np.ndarray, w: np.ndarray | None, n: int, rows: np.ndarray | None = None) -> np.ndarray:
     """(n+1, n+1) upper-triangular T with T^T T = [J r]^T W^2 [J r] (W = diag(w), none: 1) over `rows` (a
-    boolean mask; default all), or J.triangle(w) for a Jacobian kept as chunks.
+    boolean mask; default all), or J.triangle(w, rows) for a Jacobian kept as chunks.
 
     Blocked (TSQR): each block of QR_ROWS rows is copied with its weights into one small column-major work
     array and factored there, and the stacked block triangles are factored once more. No full-size copy of J
     is made and the result equals one QR of the whole to rounding."""
     if hasattr(J, "triangle"):
-        return J.triangle(w)
+        return J.triangle(w, rows)
     index = None if rows is None or rows.all() else np.flatnonzero(rows)
     m = len(r) if index is None else len(index)
     k = n + 1

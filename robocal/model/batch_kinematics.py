@@ -40,15 +40,19 @@ def supports_batch(ms) -> bool:
 
 @dataclass
 class FrameArrays:
-    """One frame at n samples: world pose (R, p) (measurement frame), pose on the robot (R0, p0) and the
-    (n, 6, n_free) LOCAL twist per free parameter (a work array: valid until the next `frame` call for the
-    same frame on the same problem; None when only poses were asked for)."""
+    """One frame at n samples: world pose (R, p) (measurement frame), pose on the robot (R0, p0), and how it
+    moves with the free parameters: `jacobian` (n, 6, n_free) is the LOCAL twist of the frame's parent joint
+    per free parameter and the frame's own LOCAL twist is `to_frame` @ jacobian (a constant 6x6: the frame's
+    placement on its joint), so a residual folds `to_frame` into its (n, d, 6) derivative instead of a pass
+    over the (n, 6, n_free) array. `jacobian` is a work array, valid until the next `frame` call for the same
+    frame on the same problem; None when only poses were asked for."""
 
     R: np.ndarray
     p: np.ndarray
     R0: np.ndarray
     p0: np.ndarray
     jacobian: np.ndarray | None
+    to_frame: np.ndarray | None = None
 
 
 class SampleConstants:
@@ -162,13 +166,10 @@ class BatchKinematics:
         n, nj, nf = len(unique), model.njoints - 1, ms.n_free
         parent = model.frames[fid].parentJoint
         placement = model.frames[fid].placement
-        if parent == 0:      # fixed to the root: no joint moves it
+        if parent == 0:      # fixed to the root: no joint moves it; its "joint" is the robot's root frame
             reg = np.zeros((n, 6, 6 * nj))
-            R0 = np.broadcast_to(placement.rotation, (n, 3, 3))
-            p0 = np.broadcast_to(placement.translation, (n, 3))
+            Ri, pi = np.broadcast_to(np.eye(3), (n, 3, 3)), np.zeros((n, 3))
         else:
-            # the parent joint's regressor; the frame's is Ad(placement^-1) times it (the frame's own
-            # placement is a constant right factor of every X_j)
             reg = self.regressors(parent, unique)
             j0 = model.supports[parent][1]
             block = reg[:, :, 6 * (j0 - 1):6 * j0]     # Ad(X_j0), X_j0 = oMi^-1 jointPlacement(j0)
@@ -178,45 +179,44 @@ class BatchKinematics:
             root = model.jointPlacements[j0]
             Ri = root.rotation @ transpose(RX)
             pi = root.translation - np.einsum("nij,nj->ni", Ri, pX)
-            R0 = Ri @ placement.rotation
-            p0 = pi + Ri @ placement.translation
+        R0 = Ri @ placement.rotation
+        p0 = pi + Ri @ placement.translation
         Rb, pb = ms.base.rotation, ms.base.translation
         R = Rb @ R0
         p = p0 @ Rb.T + pb
-        J = self.frame_jacobian(fid, unique, reg, R0, p0) if jacobian else None
+        J = self.joint_jacobian(fid, unique, reg, Ri, pi) if jacobian else None
+        to_frame = placement.inverse().toActionMatrix()
         if back is None:
-            return FrameArrays(R, p, R0, p0, J)
-        return FrameArrays(R[back], p[back], R0[back], p0[back], None if J is None else J[back])
+            return FrameArrays(R, p, R0, p0, J, to_frame)
+        return FrameArrays(R[back], p[back], R0[back], p0[back], None if J is None else J[back], to_frame)
 
-    def frame_jacobian(self, fid: int, samples: np.ndarray, reg: np.ndarray, R0: np.ndarray,
-                       p0: np.ndarray) -> np.ndarray:
-        """(n, 6, n_free) LOCAL twist of frame fid per free parameter, from its parent joint's regressors."""
+    def joint_jacobian(self, fid: int, samples: np.ndarray, reg: np.ndarray, Ri: np.ndarray,
+                       pi: np.ndarray) -> np.ndarray:
+        """(n, 6, n_free) LOCAL twist of frame fid's parent joint (pose (Ri, pi) on the robot) per free
+        parameter, from the joint's regressors; frame and base columns are carried into the joint's frame."""
         ms, model = self.ms, self.model
         n, nj, nf = len(samples), model.njoints - 1, ms.n_free
         J = self.constants.buffer(("jacobian", fid), (n, 6, nf))
         tmap = self.twist_map(ms)
-        moves = bool(tmap.any()) or bool(ms.compliance_cols or ms.backlash_cols)
-        if not moves:            # only frames and the base are free (a registration): no joint term
+        if not tmap.any():       # only frames and the base are free (a registration): no joint term
             J[...] = 0.0
         else:
             # offsets act through the joints' columns Ad(X_j) S_j: folded into the placement map, one GEMM
             # serves both (the (n*6, 6 n_joints) regressors times a (6 n_joints, n_free) map)
-            Jj = self.constants.buffer(("joint jacobian", fid), (n, 6, nf))
-            np.matmul(reg.reshape(6 * n, 6 * nj), tmap, out=Jj.reshape(6 * n, nf))
-            if ms.compliance_cols or ms.backlash_cols:
-                Jq = np.einsum("nijk,jk->nij", reg.reshape(n, 6, nj, 6), self.constants.subspace)   # (n, 6, nv)
-                tau = self.constants.tau
-                for k, iv, c, w in ms.compliance_cols:          # d q_link / d c = -tau_g
-                    Jj[:, :, c] -= w * Jq[:, :, iv] * tau[samples, k][:, None]
-                for k, iv, c, w in ms.backlash_cols:            # d q_link / d b = d
-                    Jj[:, :, c] += w * Jq[:, :, iv] * self.directions[samples, k][:, None]
-            np.matmul(model.frames[fid].placement.inverse().toActionMatrix(), Jj, out=J)
-        if fid in ms.P_frame:                  # constant columns: only the frame's own
+            np.matmul(reg.reshape(6 * n, 6 * nj), tmap, out=J.reshape(6 * n, nf))
+        if ms.compliance_cols or ms.backlash_cols:
+            Jq = np.einsum("nijk,jk->nij", reg.reshape(n, 6, nj, 6), self.constants.subspace)   # (n, 6, nv)
+            tau = self.constants.tau
+            for k, iv, c, w in ms.compliance_cols:          # d q_link / d c = -tau_g
+                J[:, :, c] -= w * Jq[:, :, iv] * tau[samples, k][:, None]
+            for k, iv, c, w in ms.backlash_cols:            # d q_link / d b = d
+                J[:, :, c] += w * Jq[:, :, iv] * self.directions[samples, k][:, None]
+        if fid in ms.P_frame:                  # constant columns, the frame's own only, seen from the joint
             cols = np.flatnonzero(np.any(ms.P_frame[fid] != 0.0, axis=0))
-            J[:, :, cols] += ms.P_frame[fid][:, cols]
+            J[:, :, cols] += (model.frames[fid].placement.toActionMatrix() @ ms.P_frame[fid])[:, cols]
         if ms.has_base_params:
             cols = np.flatnonzero(np.any(ms.P_base != 0.0, axis=0))    # the base's own columns only
             if cols[-1] - cols[0] + 1 == len(cols):
                 cols = slice(cols[0], cols[-1] + 1)
-            J[:, :, cols] += adjoint_inverse(R0, p0) @ ms.P_base[:, cols]
+            J[:, :, cols] += adjoint_inverse(Ri, pi) @ ms.P_base[:, cols]
         return J
