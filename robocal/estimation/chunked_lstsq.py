@@ -17,10 +17,10 @@ from typing import Callable
 
 import numpy as np
 
-from robocal.estimation.problem import Evaluation, Problem
+from robocal.estimation.problem import EVALUATE_CHUNK_TERMS, Evaluation, Problem
 from robocal.estimation.solve import r_factor
 
-CHUNK_TERMS = 20_000
+CHUNK_TERMS = EVALUATE_CHUNK_TERMS
 LARGE_JACOBIAN = 50_000_000     # entries (400 MB): above this calibrate() evaluates in chunks
 
 
@@ -97,4 +97,4 @@ def evaluator(problem: Problem, chunk_terms: int | None = None) -> tuple[Callabl
     chunked = bool(chunk_terms) or (chunk_terms is None and large)
     if not chunked:
         return problem.evaluate, False
-    return (lambda: evaluate_chunked(problem, chunk_terms or CHUNK_TERMS)), True
+    return (lambda: evaluate_chunked(problem, int(chunk_terms or CHUNK_TERMS))), True
