@@ -208,16 +208,21 @@ def triangle(J, r: np.ndarray, w: np.ndarray | None, n: int, rows: np.ndarray | 
     return stacked[:k] if len(blocks) <= 1 else r_factor(stacked, overwrite=True)
 
 
+QR_PANEL = 8     # dgeqrt's block size: measured ~1.7x faster than dgeqrf on 2000 x 38..55 blocks
+
+
 def r_factor(A: np.ndarray, overwrite: bool = False) -> np.ndarray:
     """(k, k) upper-triangular R with R^T R = A^T A for an (m, k) array (rows of zeros below when m < k).
-    LAPACK geqrf on a column-major copy of A, or on A itself when it is column-major and `overwrite`: measured
-    2x faster than scipy.linalg.qr(mode='r'), which copies A and returns the full (m, k) R."""
+    LAPACK geqrt (compact-WY QR with small panels) on a column-major copy of A, or on A itself when it is
+    column-major and `overwrite`: much faster than scipy.linalg.qr(mode='r'), which copies A and returns the
+    full (m, k) R, and than geqrf on the tall, narrow blocks a fit factors."""
     m, k = A.shape
     R = np.zeros((0, k))
-    if m:
-        qr, _tau, _work, info = scipy.linalg.lapack.dgeqrf(np.array(A, order="F", copy=None if overwrite else True),
-                                                              overwrite_a=True)
+    if m and k:
+        qr, _t, info = scipy.linalg.lapack.dgeqrt(max(1, min(QR_PANEL, m, k)),
+                                                  np.array(A, order="F", copy=None if overwrite else True),
+                                                  overwrite_a=True)
         if info != 0:
-            raise ValueError(f"LAPACK dgeqrf failed (info {info})")
+            raise ValueError(f"LAPACK dgeqrt failed (info {info})")
         R = np.triu(qr[:k])
     return np.vstack([R, np.zeros((k - len(R), k))]) if len(R) < k else R
