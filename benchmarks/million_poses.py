@@ -1,10 +1,10 @@
-"""UR5 full calibration from a very large number of simulated 6D poses, through the chunked least squares.
+"""UR5 full calibration from a very large number of simulated 6D poses: calibrate() on its chunked path.
 
 Run: OMP_NUM_THREADS=1 python benchmarks/million_poses.py [--poses 1000000] [--chunk 20000]
 Prints the time of each stage and the process's maximum resident memory (resource.getrusage), which is the
 figure that matters: the Jacobian (6 rows a pose) is never held whole (robocal.estimation.chunked_lstsq).
-The fit is calibrate()'s flow by hand: base-parameter selection on the first triangle, Levenberg-Marquardt
-on the chunked triangles, covariance from the solver's last triangle.
+The fit is calibrate() itself, every stage included (registration for the "before" figures, the default
+prior's evidence, selection, Levenberg-Marquardt, covariance, determinacy classes), with chunk_terms = --chunk.
 """
 import argparse
 import os
@@ -19,10 +19,8 @@ from scipy.spatial.transform import Rotation  # noqa: E402
 
 from robocal import load_example  # noqa: E402
 from robocal.design.simulate import perturb, random_configurations  # noqa: E402
-from robocal.estimation.chunked_lstsq import evaluate_chunked  # noqa: E402
-from robocal.estimation.identifiability import covariance, select_base_parameters  # noqa: E402
+from robocal.estimation.calibrate import CalibrationOptions, calibrate  # noqa: E402
 from robocal.estimation.problem import Problem  # noqa: E402
-from robocal.estimation.solve import levenberg_marquardt  # noqa: E402
 from robocal.model.batch_kinematics import BatchKinematics  # noqa: E402
 from robocal.model.parameters import robot_parameters  # noqa: E402
 from robocal.residuals import PoseResidual  # noqa: E402
@@ -58,25 +56,8 @@ def build(n, rng, chunk):
 
 
 def fit(problem, chunk):
-    params = problem.params
-    names = params.free_names
-    ev0 = evaluate_chunked(problem, chunk)
-    n = len(names)
-    selection = select_base_parameters(ev0.J.triangle()[:n, :n], names)
-    for j in selection.dependent:
-        params[names[j]].vary = False
-
-    def fun(x):
-        params.set_free_values(x)
-        ev = evaluate_chunked(problem, chunk)
-        return ev.r, ev.J, ev.group
-
-    sol = levenberg_marquardt(fun, params.free_values())
-    params.set_free_values(sol.x)
-    n = len(sol.x)
-    sigma2 = float(sol.fun @ sol.fun) / (len(sol.fun) - n)
-    cov = covariance(sol.triangle[:n, :n], sigma2)
-    return sol, selection, sigma2, cov
+    result = calibrate(problem, CalibrationOptions(chunk_terms=chunk))
+    return result
 
 
 def prediction_error(problem, truth, rng, n=1000):
@@ -101,14 +82,18 @@ def main():
     problem, truth = build(args.poses, rng, args.chunk)
     t1 = time.perf_counter()
     rss_built = max_rss_mb()
-    sol, selection, sigma2, cov = fit(problem, args.chunk)
+    result = fit(problem, args.chunk)
     t2 = time.perf_counter()
     err = prediction_error(problem, truth, np.random.default_rng(1))
+    sol, selection = result.solve, result.selection
+    se = [problem.params[n].stderr for n in problem.params.free_names]
     print(f"poses {args.poses}, rows {6 * args.poses}, parameters {selection.rank} of {len(selection.names)} "
           f"identifiable, chunk {args.chunk} poses")
     print(f"build + simulate   {t1 - t0:8.1f} s   max RSS so far {rss_built:8.0f} MB")
-    print(f"fit                {t2 - t1:8.1f} s   {sol.nit} iterations, {sol.message}; residual/sigma "
-          f"{np.sqrt(sigma2):.4f}")
+    print(f"calibrate()        {t2 - t1:8.1f} s   {sol.nit} iterations, {sol.message}; residual/sigma "
+          f"{np.sqrt(result.sigma2):.4f}; status {result.status}; standard errors {min(se):.2e}..{max(se):.2e}; "
+          f"default prior applied: {result.default_prior.applied}; before {result.before[0].headline()}, "
+          f"after {result.after[0].headline()}")
     print(f"max RSS            {max_rss_mb():8.0f} MB")
     print(f"tool position error against the true robot, 1000 fresh configurations: max {1e6 * err:.2f} um "
           f"(noise {1e6 * SIGMA:.0f} um a pose)")

@@ -17,15 +17,16 @@ from typing import Callable
 import numpy as np
 
 from robocal.errors import IdentifiabilityError, InputError
+from robocal.estimation.chunked_lstsq import evaluator
 from robocal.estimation.determinacy import classify
 from robocal.estimation.identifiability import covariance, select_base_parameters
 from robocal.estimation.physical_scale import (DETERMINED_ANGLE, DETERMINED_LENGTH,
                                                physical_scales)
 from robocal.estimation.plausibility import check_fit, nominal_values
-from robocal.estimation.registration import DefaultPrior, apply_default_prior, register_nominal
+from robocal.estimation.registration import DefaultPrior, apply_default_prior, data_rows, register_nominal
 from robocal.estimation.problem import Evaluation, Problem
 from robocal.estimation.result import BlockStats, CalibrationResult, block_statistics
-from robocal.estimation.solve import Iteration, levenberg_marquardt, r_factor
+from robocal.estimation.solve import Iteration, levenberg_marquardt, r_factor, triangle
 
 log = logging.getLogger(__name__)
 MAX_SELECTION_PASSES = 3
@@ -46,6 +47,8 @@ class CalibrationOptions:
     determined_length: float = DETERMINED_LENGTH   # m: standard error below which a length is determined
     determined_angle: float = DETERMINED_ANGLE     # rad: the same for an angle
     register_before: bool = True     # "before" figures after registering the nominal model (else: as given)
+    chunk_terms: int | None = None   # terms a chunk when the Jacobian is kept as its triangle (None: automatic
+                                     # above chunked_lstsq.LARGE_JACOBIAN entries; 0: never)
 
 
 def calibrate(problem: Problem, options: CalibrationOptions | None = None,
@@ -68,9 +71,10 @@ def calibrate(problem: Problem, options: CalibrationOptions | None = None,
     if not np.all(np.isfinite(ev0.r)):
         raise IdentifiabilityError(f"{source}: the residuals are not finite at the initial parameters")
     registered = register_nominal(problem, opt) if opt.register_before or opt.regularisation == "auto" else None
-    default_prior = (apply_default_prior(problem, registered, scales, opt.rank_rtol)
+    default_prior = (apply_default_prior(problem, registered, scales, opt.rank_rtol, opt.chunk_terms)
                      if opt.regularisation == "auto" else DefaultPrior("none", False))
-    ev0 = problem.evaluate()           # after the registration: the layout of the full free set, with any prior
+    evaluate, chunked = evaluator(problem, opt.chunk_terms)   # chunked: J is only ever its triangle
+    ev0 = evaluate()                   # after the registration: the layout of the full free set, with any prior
     m = len(ev0.r)
     before = registered.before if registered is not None and opt.register_before else block_statistics(problem, ev0)
 
@@ -81,7 +85,7 @@ def calibrate(problem: Problem, options: CalibrationOptions | None = None,
             ev = last["ev"]
             return ev.r, ev.J, ev.group
         params.set_free_values(x)
-        ev = problem.evaluate()
+        ev = evaluate()
         last["x"], last["ev"] = np.array(x), ev
         return ev.r, ev.J, ev.group
 
@@ -91,22 +95,24 @@ def calibrate(problem: Problem, options: CalibrationOptions | None = None,
     # decided at the start stay decided, so the same data always give the same set.
     # Identifiability is a property of the data: prior rows are left out of the selection, and parameters
     # with a prior are then kept whatever the data say (their prior determines them).
-    data_rows = np.ones(m, bool)
-    for b in problem.blocks:
-        if b.type_name == "prior":
-            data_rows[b.rows] = False
+    start_rows = data_rows(problem, m)
     with_prior = [j for j, n in enumerate(requested) if params[n].prior_sigma is not None]
-    first = select_base_parameters(data_factor(ev0.J, data_rows), requested, opt.rank_rtol)
+    # one factorisation of [J r] at the start serves the selection (its R block) and the first step
+    start = triangle(ev0.J, ev0.r, None, len(requested), start_rows)
+    first = select_base_parameters(start[:len(requested), :len(requested)], requested, opt.rank_rtol)
     prior_only = [requested[j] for j in first.dependent if j in with_prior]
     selection = _apply_selection(params, requested, None, opt.rank_rtol, first.keep_also(with_prior))
     kept = [requested.index(n) for n in params.free_names]          # the solver starts where ev0 was taken
-    last["x"], last["ev"] = params.free_values(), Evaluation(ev0.r, ev0.J[:, kept], ev0.raw, ev0.group)
+    first_triangle = None
+    if not chunked:
+        last["x"], last["ev"] = params.free_values(), Evaluation(ev0.r, ev0.J[:, kept], ev0.raw, ev0.group)
+        first_triangle = columns_triangle(start, kept, ev0, start_rows)
     for _attempt in range(MAX_SELECTION_PASSES):
         log.info("calibrating %d of %d requested parameters from %d rows", selection.rank, len(requested), m)
         lo, hi = params.free_bounds()
         sol = levenberg_marquardt(fun, params.free_values(), lo, hi, loss=opt.loss, f_scale=opt.f_scale,
                                   max_iterations=opt.max_iterations, ftol=opt.ftol, xtol=opt.xtol, gtol=opt.gtol,
-                                  callback=progress)
+                                  callback=progress, first_triangle=first_triangle if _attempt == 0 else None)
         params.set_free_values(sol.x)
         hidden = selection.no_effect
         if not hidden or _attempt == MAX_SELECTION_PASSES - 1:
@@ -114,8 +120,9 @@ def calibrate(problem: Problem, options: CalibrationOptions | None = None,
         for name in requested:
             params[name].vary = True
         allowed = set(selection.independent) | set(hidden)
-        again = select_base_parameters(data_factor(problem.evaluate().J, data_rows), requested, opt.rank_rtol,
-                                       allowed).keep_also(with_prior)
+        ev_all = evaluate()
+        again = select_base_parameters(triangle(ev_all.J, ev_all.r, None, len(requested), start_rows)[:-1, :-1],
+                                       requested, opt.rank_rtol, allowed).keep_also(with_prior)
         if again.independent == selection.independent:   # same set; explain it as seen at the solution
             selection = _apply_selection(params, requested, None, opt.rank_rtol, again)
             break
@@ -124,15 +131,15 @@ def calibrate(problem: Problem, options: CalibrationOptions | None = None,
         selection = _apply_selection(params, requested, None, opt.rank_rtol, again)
     x = params.free_values()
     reuse = "x" in last and last["x"].shape == x.shape and np.array_equal(last["x"], x)
-    ev = last["ev"] if reuse else problem.evaluate()   # the solver's last evaluation is at the solution
+    ev = last["ev"] if reuse else evaluate()   # the solver's last evaluation is at the solution
     after = block_statistics(problem, ev)
     n = len(sol.x)
     dof = m - n
-    Jw = ev.J * sol.weights[:, None] if sol.weights is not None else ev.J
-    ssr = float(np.sum((ev.r * (sol.weights if sol.weights is not None else 1.0)) ** 2))
+    w = sol.weights
+    ssr = float(np.sum((ev.r * (w if w is not None else 1.0)) ** 2))
     sigma2 = (ssr / dof if dof > 0 else float("nan")) if opt.scale_covariance else 1.0
     # the solver's last QR, of [Jw r] at its solution, has the same column geometry as Jw (R^T R = Jw^T Jw)
-    Rw = sol.triangle[:n, :n] if sol.triangle is not None else Jw
+    Rw = (sol.triangle if sol.triangle is not None else triangle(ev.J, ev.r, w, n))[:n, :n]
     final_sel = select_base_parameters(Rw, params.free_names, opt.rank_rtol)
     cov = covariance(Rw, sigma2) if final_sel.rank == n else np.full((n, n), np.nan)
     for name, s in zip(params.free_names, np.sqrt(np.abs(np.diag(cov)))):
@@ -143,13 +150,16 @@ def calibrate(problem: Problem, options: CalibrationOptions | None = None,
         solve=sol, dof=dof, sigma2=sigma2, condition=final_sel.condition, ill_conditioned=ill,
         condition_limit=opt.condition_limit, n_rows=m, prior_only=prior_only)
     free = params.free_names
-    data_rows_now = np.ones(len(ev.r), bool)
-    for b in problem.blocks:
-        if b.type_name == "prior":
-            data_rows_now[b.rows] = False
+    data_rows_now = data_rows(problem, len(ev.r))
+    # the data rows' column geometry: the solver's triangle when every row is data, else factored here; the
+    # rows themselves when fewer than the columns (classify then knows which directions no row sees)
+    if data_rows_now.sum() < n:
+        J_data = (ev.J * (w[:, None] if w is not None else 1.0))[data_rows_now]
+    else:
+        J_data = Rw if data_rows_now.all() else triangle(ev.J, ev.r, w, n, data_rows_now)[:n, :n]
     noise2 = sigma2 if np.isfinite(sigma2) else 1.0
     with_prior = {p.name for p in params if p.prior_sigma is not None}
-    result.determinacy = classify(free, Jw[data_rows_now], noise2, scales.threshold(free), scales.of(free),
+    result.determinacy = classify(free, J_data, noise2, scales.threshold(free), scales.of(free),
                                   [requested[j] for j in selection.dependent], with_prior)
     result.default_prior = default_prior
     result.registration = registered.names if registered is not None else []
@@ -159,10 +169,14 @@ def calibrate(problem: Problem, options: CalibrationOptions | None = None,
     return result
 
 
-def data_factor(J: np.ndarray, data_rows: np.ndarray) -> np.ndarray:
-    """R of the data rows of J (R^T R = J^T J over them): the selection sees the same column geometry in an
-    n x n matrix, factored once here instead of copied and factored again inside it."""
-    return r_factor(J if data_rows.all() else J[data_rows])
+def columns_triangle(T: np.ndarray, kept: list[int], ev: Evaluation, data_rows: np.ndarray) -> np.ndarray:
+    """Triangle of [J[:, kept] r] over all rows of `ev`, from T, the triangle of [J r] over its data rows:
+    T's columns have the same inner products as [J r]'s (T^T T = [J r]^T [J r]), so factoring the kept ones
+    with the other rows (the priors) stacked below gives it without touching the m data rows again."""
+    cols = list(kept) + [T.shape[1] - 1]
+    others = np.flatnonzero(~data_rows)
+    block = np.vstack([T[:, cols], np.column_stack([ev.J[others][:, kept], ev.r[others]])])
+    return r_factor(block, overwrite=True)
 
 
 def _apply_selection(params, requested, J, rtol, selection=None):

@@ -18,6 +18,7 @@ from robocal.residuals.prior import prior_rows
 
 
 KIND_ORDER = {"base": 0, "auxiliary": 1}
+EVALUATE_CHUNK_TERMS = 20_000   # terms of a batched residual evaluated at once
 
 
 @dataclass
@@ -102,8 +103,10 @@ class Problem:
         self.blocks = self.layout()  # priors may have been switched on or off
         m = self.blocks[-1].rows.stop if self.blocks else 0
         n_free = len(self.params.free_names)
-        ev = Evaluation(np.empty(m), np.zeros((m, n_free)) if jacobian else None, np.empty(m), np.empty(m, int))
-        for rows, r, raw, group, J in self.pieces(jacobian, out=ev.J):
+        # every row is written below (each piece fills its rows): no zeroing pass
+        ev = Evaluation(np.empty(m), np.empty((m, n_free)) if jacobian else None, np.empty(m), np.empty(m, int))
+        # in chunks of terms: the per-sample work arrays (regressors: 1.7 kB a pose) stay bounded
+        for rows, r, raw, group, J in self.pieces(jacobian, EVALUATE_CHUNK_TERMS, out=ev.J):
             ev.r[rows], ev.raw[rows], ev.group[rows] = r, raw, group
             if jacobian and not np.may_share_memory(J, ev.J):
                 ev.J[rows] = J
@@ -136,16 +139,17 @@ class Problem:
                 rows = slice(block.rows.start + k0 * n_keep, block.rows.start + terms.stop * n_keep)
                 group = gid + np.repeat(np.arange(k0, terms.stop), n_keep)
                 if batch is not None and res.batched:
-                    fa = batch.frame(res.frame, res.samples[terms])
+                    fa = batch.frame(res.frame, res.samples[terms], jacobian)
                     t = res.evaluate_batch(terms, fa.R, fa.p, aux)
                     Jt = None
                     if jacobian:
                         direct = out is not None and n_keep == res.dim
-                        Jt = np.matmul(t.D, fa.jacobian, out=out[rows].reshape(n_t, res.dim, n_free) if direct
-                                       else None)
+                        # the row scales and the frame's placement folded into the (n, dim, 6) derivative:
+                        # no extra pass over J
+                        Jt = np.matmul((t.D * scale[:, None]) @ fa.to_frame, fa.jacobian,
+                                       out=out[rows].reshape(n_t, res.dim, n_free) if direct else None)
                         for j, c, w in aux_cols:
-                            Jt[:, :, c] += w * t.aux[:, :, j]
-                        Jt *= scale[:, None]
+                            Jt[:, :, c] += w * t.aux[:, :, j] * scale
                         Jt = (Jt if n_keep == res.dim else Jt[:, keep]).reshape(n_t * n_keep, n_free)
                     raw = t.r if n_keep == res.dim else t.r[:, keep]
                     yield rows, (raw * scale[keep]).ravel(), raw.ravel(), group, Jt

@@ -16,11 +16,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from robocal.estimation.chunked_lstsq import evaluator
 from robocal.estimation.identifiability import select_base_parameters
 from robocal.estimation.physical_scale import is_registration, measured_frames
 from robocal.estimation.regularisation import choose_strength
 from robocal.estimation.result import block_statistics
-from robocal.estimation.solve import levenberg_marquardt
+from robocal.estimation.solve import levenberg_marquardt, triangle
 
 
 @dataclass
@@ -76,9 +77,11 @@ def fit_subset(problem, names: list[str], options):
         for n in fixed_now:
             params[n].vary = True
 
+        evaluate = evaluator(problem, options.chunk_terms)[0]
+
         def fun(x):
             params.set_free_values(x)
-            ev = problem.evaluate()
+            ev = evaluate()
             return ev.r, ev.J, ev.group
 
         sol = levenberg_marquardt(fun, params.free_values(), *params.free_bounds(), loss=options.loss,
@@ -115,8 +118,10 @@ def register_nominal(problem, options) -> Registered:
     return Registered(reg, values, before, message)
 
 
-def apply_default_prior(problem, registered: Registered, scales, rtol: float) -> DefaultPrior:
-    """Add the evidence-scaled physical prior to the kept robot parameters if the data leave one loose."""
+def apply_default_prior(problem, registered: Registered, scales, rtol: float,
+                        chunk_terms: int | None = None) -> DefaultPrior:
+    """Add the evidence-scaled physical prior to the kept robot parameters if the data leave one loose.
+    chunk_terms: as CalibrationOptions.chunk_terms (robocal.estimation.chunked_lstsq.evaluator)."""
     params = problem.params
     free = params.free_names
     candidates = {n for n in free if n in scales.scale and params[n].prior_sigma is None}
@@ -129,16 +134,24 @@ def apply_default_prior(problem, registered: Registered, scales, rtol: float) ->
         for k, n in enumerate(free):
             x[k] = registered.values.get(n, x[k])
         params.set_free_values(x)               # followers of the registration frames move with them
-        ev = problem.evaluate()
+        ev = evaluator(problem, chunk_terms)[0]()
     finally:
         params.set_values(start)
         problem.warm_starts = warm
     rows = data_rows(problem, len(ev.r))
-    J, r = ev.J[rows], ev.r[rows]
+    # the data rows enter only through inner products of [J r]'s columns: its triangle T (T^T T = [J r]^T [J r])
+    # serves the selection and the evidence in place of the m rows, from one factorisation
+    # (fewer rows than columns: the rows themselves, so no zero row of a padded triangle enters the evidence)
+    n_rows = int(rows.sum())
+    if n_rows > len(free):
+        T = triangle(ev.J, ev.r, None, len(free), rows)
+        J, r = T[:, :-1], T[:, -1]
+    else:
+        J, r, n_rows = ev.J[rows], ev.r[rows], None
     sel = select_base_parameters(J, free, rtol)
     kept = [free[j] for j in sel.independent]
     sc = np.array([scales.scale[n] if n in candidates else np.inf for n in kept])
-    evd = choose_strength(J[:, sel.independent], r, sc)
+    evd = choose_strength(J[:, sel.independent], r, sc, n_rows=n_rows)
     # looseness is a property of the design: judged at the stated sigmas, not at the measured noise, which
     # a model far from the data (a poor nominal, a wrong model) inflates
     at_stated = evd.stderr / np.sqrt(evd.noise2) if evd.noise2 > 0 else evd.stderr

@@ -42,15 +42,17 @@ def project_out(J_flat: np.ndarray, *arrays: np.ndarray) -> tuple[int, list[np.n
     return rank, [a - Q @ (Q.T @ a) for a in arrays]
 
 
-def choose_strength(J: np.ndarray, r: np.ndarray, scales: np.ndarray, strengths=STRENGTHS) -> Evidence:
+def choose_strength(J: np.ndarray, r: np.ndarray, scales: np.ndarray, strengths=STRENGTHS,
+                    n_rows: int | None = None) -> Evidence:
     """Evidence-optimal prior strength for the columns of J with a finite scale (the others are flat).
 
-    J (m, n): Jacobian of the scaled data rows; r (m,): scaled residual at the linearisation point.
+    J (m, n): Jacobian of the scaled data rows; r (m,): scaled residual at the linearisation point. Or, with
+    n_rows = m, the columns of the triangle T of [J r] (T^T T = [J r]^T [J r]): only inner products enter.
     """
     scales = np.asarray(scales, float)
     scaled = np.isfinite(scales)
     rank_flat, (y, A) = project_out(J[:, ~scaled], np.asarray(r, float), J[:, scaled] * scales[scaled])
-    m_eff = len(y) - rank_flat
+    m_eff = (len(y) if n_rows is None else n_rows) - rank_flat
     U, d, Vt = np.linalg.svd(A, full_matrices=False)
     z = U.T @ y
     rest = max(float(y @ y - z @ z), 0.0)

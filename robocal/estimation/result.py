@@ -47,16 +47,22 @@ class BlockStats:
 
 
 def term_norms(raw: np.ndarray, units: np.ndarray, group: np.ndarray, kind: str) -> tuple[np.ndarray, bool]:
-    """Error norm of each point (triple of `kind` rows of one term) or |row|; True if triples were found."""
-    norms, triples = [], True
-    for g in dict.fromkeys(group.tolist()):
-        v = raw[(group == g) & (units == kind)]
-        if len(v) % 3 == 0 and len(v):
-            norms.append(np.linalg.norm(v.reshape(-1, 3), axis=1))
-        else:
-            triples = False
-            norms.append(np.abs(v))
-    return (np.concatenate(norms) if norms else np.zeros(0)), triples
+    """Error norm of each point (triple of `kind` rows of one term) or |row|, terms in order of first
+    appearance; True if every term has a nonzero multiple of three `kind` rows. Whole-array: one pass, not
+    one mask per term (which made a 10000-pose fit spend seconds here)."""
+    if not len(group):
+        return np.zeros(0), True
+    ids, first, inverse = np.unique(group, return_index=True, return_inverse=True)
+    term = np.argsort(np.argsort(first))[inverse]        # each row's term, numbered by first appearance
+    order = np.argsort(term, kind="stable")
+    sel = (np.asarray(units) == kind)[order]
+    v, t = raw[order][sel], term[order][sel]
+    counts = np.bincount(t, minlength=len(ids))
+    in_triples = (counts % 3 == 0) & (counts > 0)
+    tri_row = in_triples[t]
+    tri_pos, abs_pos = np.flatnonzero(tri_row)[::3], np.flatnonzero(~tri_row)
+    values = np.concatenate([np.linalg.norm(v[tri_row].reshape(-1, 3), axis=1), np.abs(v[~tri_row])])
+    return values[np.argsort(np.concatenate([tri_pos, abs_pos]), kind="stable")], bool(in_triples.all())
 
 
 def block_statistics(problem, ev) -> list[BlockStats]:

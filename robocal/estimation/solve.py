@@ -81,11 +81,14 @@ def robust_weights(r: np.ndarray, group: np.ndarray, loss: str, f_scale: float) 
 
 def levenberg_marquardt(fun: Callable, x0: np.ndarray, lower=None, upper=None, loss: str = "linear",
                         f_scale: float = 1.0, max_iterations: int = 100, ftol: float = 1e-12,
-                        xtol: float = 1e-12, gtol: float = 1e-10, callback: Callable | None = None) -> SolveResult:
+                        xtol: float = 1e-12, gtol: float = 1e-10, callback: Callable | None = None,
+                        first_triangle: np.ndarray | None = None) -> SolveResult:
     """Minimise 1/2 sum rho(|r_g|^2) over x within [lower, upper].
 
     fun(x) -> (r, J, group): residual (m,), Jacobian (m, n), term id of each row (m,).
     callback(Iteration) is called after every accepted step.
+    first_triangle: the triangle of [J r] at x0 if the caller has it (used with the linear loss, whose
+    weights are 1; the caller's factorisation then serves the first step too).
     """
     n = len(x0)
     lower = np.full(n, -np.inf) if lower is None else np.asarray(lower, float)
@@ -94,7 +97,9 @@ def levenberg_marquardt(fun: Callable, x0: np.ndarray, lower=None, upper=None, l
     r, J, group = fun(x)
     w, cost = robust_weights(r, group, loss, f_scale)
     cost0 = cost
-    T = triangle(J, r, w, n)
+    unit = loss == "linear"          # all weights 1: no weighted copy
+    T = (first_triangle if unit and first_triangle is not None and np.array_equal(x, x0)
+         else triangle(J, r, None if unit else w, n))
     R, qtr = T[:n, :n], T[:n, n]
     D = np.maximum(np.linalg.norm(R, axis=0), 1e-12)
     lam, history, good_model = 1e-3, [], False
@@ -151,7 +156,7 @@ def levenberg_marquardt(fun: Callable, x0: np.ndarray, lower=None, upper=None, l
         reduction = cost - cost_new
         x, r, J, cost = x_new, r_new, J_new, cost_new
         w = w_new
-        T = triangle(J, r, w, n)
+        T = triangle(J, r, None if unit else w, n)
         R, qtr = T[:n, :n], T[:n, n]
         D = np.maximum(D, np.linalg.norm(R, axis=0))
         rec = Iteration(it, cost, step, lam, gnorm)
@@ -169,27 +174,55 @@ def levenberg_marquardt(fun: Callable, x0: np.ndarray, lower=None, upper=None, l
     return result(status, message, it)
 
 
-def triangle(J, r: np.ndarray, w: np.ndarray, n: int) -> np.ndarray:
-    """(n+1, n+1) upper-triangular T with T^T T = [J r]^T W^2 [J r] (W = diag(w)): the R factor of the
-    weighted [J r], or J.triangle(w) for a Jacobian kept as chunks."""
+QR_ROWS = 2000   # rows per block of `triangle`: a block's QR stays in cache (measured ~1.6x faster at 60000 rows)
+
+
+def triangle(J, r: np.ndarray, w: np.ndarray | None, n: int, rows: np.ndarray | None = None) -> np.ndarray:
+    """(n+1, n+1) upper-triangular T with T^T T = [J r]^T W^2 [J r] (W = diag(w), none: 1) over `rows` (a
+    boolean mask; default all), or J.triangle(w, rows) for a Jacobian kept as chunks.
+
+    Blocked (TSQR): each block of QR_ROWS rows is copied with its weights into one small column-major work
+    array and factored there, and the stacked block triangles are factored once more. No full-size copy of J
+    is made and the result equals one QR of the whole to rounding."""
     if hasattr(J, "triangle"):
-        return J.triangle(w)
-    A = np.empty((len(r), n + 1), order="F")       # LAPACK's layout: factored in place
-    np.multiply(J, w[:, None], out=A[:, :n])
-    np.multiply(r, w, out=A[:, n])
-    return r_factor(A, overwrite=True)
+        return J.triangle(w, rows)
+    index = None if rows is None or rows.all() else np.flatnonzero(rows)
+    m = len(r) if index is None else len(index)
+    k = n + 1
+    blocks = range(0, m, QR_ROWS)
+    stacked = np.zeros((max(len(blocks), 1) * k, k), order="F")
+    work = np.empty((min(m, QR_ROWS), k), order="F")
+    for b, start in enumerate(blocks):
+        part = slice(start, min(start + QR_ROWS, m))
+        take = part if index is None else index[part]
+        size = part.stop - part.start
+        A = work if size == len(work) else np.empty((size, k), order="F")
+        if w is None:
+            np.copyto(A[:, :n], J[take])
+            A[:, n] = r[take]
+        else:
+            wb = w[take]
+            np.multiply(J[take], wb[:, None], out=A[:, :n])
+            np.multiply(r[take], wb, out=A[:, n])
+        stacked[b * k:(b + 1) * k] = r_factor(A, overwrite=True)
+    return stacked[:k] if len(blocks) <= 1 else r_factor(stacked, overwrite=True)
+
+
+QR_PANEL = 8     # dgeqrt's block size: measured ~1.7x faster than dgeqrf on 2000 x 38..55 blocks
 
 
 def r_factor(A: np.ndarray, overwrite: bool = False) -> np.ndarray:
     """(k, k) upper-triangular R with R^T R = A^T A for an (m, k) array (rows of zeros below when m < k).
-    LAPACK geqrf on a column-major copy of A, or on A itself when it is column-major and `overwrite`: measured
-    2x faster than scipy.linalg.qr(mode='r'), which copies A and returns the full (m, k) R."""
+    LAPACK geqrt (compact-WY QR with small panels) on a column-major copy of A, or on A itself when it is
+    column-major and `overwrite`: much faster than scipy.linalg.qr(mode='r'), which copies A and returns the
+    full (m, k) R, and than geqrf on the tall, narrow blocks a fit factors."""
     m, k = A.shape
     R = np.zeros((0, k))
-    if m:
-        qr, _tau, _work, info = scipy.linalg.lapack.dgeqrf(np.array(A, order="F", copy=None if overwrite else True),
-                                                              overwrite_a=True)
+    if m and k:
+        qr, _t, info = scipy.linalg.lapack.dgeqrt(max(1, min(QR_PANEL, m, k)),
+                                                  np.array(A, order="F", copy=None if overwrite else True),
+                                                  overwrite_a=True)
         if info != 0:
-            raise ValueError(f"LAPACK dgeqrf failed (info {info})")
+            raise ValueError(f"LAPACK dgeqrt failed (info {info})")
         R = np.triu(qr[:k])
     return np.vstack([R, np.zeros((k - len(R), k))]) if len(R) < k else R

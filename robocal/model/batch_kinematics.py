@@ -40,15 +40,19 @@ def supports_batch(ms) -> bool:
 
 @dataclass
 class FrameArrays:
-    """One frame at n samples: world pose (R, p) (measurement frame), pose on the robot (R0, p0) and the
-    (n, 6, n_free) LOCAL twist per free parameter (a work array: valid until the next `frame` call for the
-    same frame on the same problem)."""
+    """One frame at n samples: world pose (R, p) (measurement frame), pose on the robot (R0, p0), and how it
+    moves with the free parameters: `jacobian` (n, 6, n_free) is the LOCAL twist of the frame's parent joint
+    per free parameter and the frame's own LOCAL twist is `to_frame` @ jacobian (a constant 6x6: the frame's
+    placement on its joint), so a residual folds `to_frame` into its (n, d, 6) derivative instead of a pass
+    over the (n, 6, n_free) array. `jacobian` is a work array, valid until the next `frame` call for the same
+    frame on the same problem; None when only poses were asked for."""
 
     R: np.ndarray
     p: np.ndarray
     R0: np.ndarray
     p0: np.ndarray
-    jacobian: np.ndarray
+    jacobian: np.ndarray | None
+    to_frame: np.ndarray | None = None
 
 
 class SampleConstants:
@@ -120,16 +124,16 @@ class BatchKinematics:
         self.directions = directions
         self._twist_map = None
 
-    def regressors(self, fid: int, samples: np.ndarray) -> np.ndarray:
-        """(n, 6, 6 n_joints) LOCAL kinematic regressors of frame fid at the samples (cached while the
-        configurations and joint placements are unchanged)."""
+    def regressors(self, jid: int, samples: np.ndarray) -> np.ndarray:
+        """(n, 6, 6 n_joints) LOCAL kinematic regressors of joint jid's frame at the samples, cached while the
+        configurations and the supporting joints' placements are unchanged. A frame's own placement is not
+        part of the key: a fit that moves only a tool or marker frame (the registration, a tool-only fit)
+        runs Pinocchio once (see `frame`)."""
         q = self.q[samples]
-        # the regressor is the frame seen from each joint: it moves with the joints and with the frame
         model = self.model
-        joints = model.supports[model.frames[fid].parentJoint]
-        placements = np.array([model.jointPlacements[j].homogeneous for j in joints[1:]]
-                              + [model.frames[fid].placement.homogeneous])
-        hit = self.constants.regressors.get(fid)
+        joints = model.supports[jid]
+        placements = np.array([model.jointPlacements[j].homogeneous for j in joints[1:]])
+        hit = self.constants.regressors.get(jid)
         if (hit is not None and np.array_equal(hit[0], samples) and np.array_equal(hit[1], q)
                 and np.array_equal(hit[2], placements)):
             return hit[3]
@@ -138,9 +142,9 @@ class BatchKinematics:
         out = hit[3] if hit is not None and hit[3].shape == shape else np.empty(shape)   # the old entry's memory
         for row, qi in enumerate(q):
             pin.forwardKinematics(model, data, qi)
-            out[row] = pin.computeFrameKinematicRegressor(model, data, fid, LOCAL)
+            out[row] = pin.computeJointKinematicRegressor(model, data, jid, LOCAL)
         if out.nbytes <= CACHE_BYTES:
-            self.constants.regressors[fid] = (samples.copy(), q, placements, out)
+            self.constants.regressors[jid] = (samples.copy(), q, placements, out)
         return out
 
     def twist_map(self, ms) -> np.ndarray:
@@ -152,7 +156,8 @@ class BatchKinematics:
             self._twist_map = offsets + ms.P_joint if ms.has_joint_params else offsets
         return self._twist_map
 
-    def frame(self, frame, samples) -> FrameArrays:
+    def frame(self, frame, samples, jacobian: bool = True) -> FrameArrays:
+        """The frame at the samples; without `jacobian`, FrameArrays.jacobian is None (poses only)."""
         ms, model = self.ms, self.model
         fid = frame if isinstance(frame, (int, np.integer)) else ms.robot.frame_id(frame)
         samples = np.asarray(samples, dtype=int)
@@ -160,42 +165,58 @@ class BatchKinematics:
         unique, back = (samples, None) if ordered else np.unique(samples, return_inverse=True)
         n, nj, nf = len(unique), model.njoints - 1, ms.n_free
         parent = model.frames[fid].parentJoint
-        if parent == 0:      # fixed to the root: no joint moves it
+        placement = model.frames[fid].placement
+        if parent == 0:      # fixed to the root: no joint moves it; its "joint" is the robot's root frame
             reg = np.zeros((n, 6, 6 * nj))
-            R0 = np.broadcast_to(model.frames[fid].placement.rotation, (n, 3, 3))
-            p0 = np.broadcast_to(model.frames[fid].placement.translation, (n, 3))
+            Ri, pi = np.broadcast_to(np.eye(3), (n, 3, 3)), np.zeros((n, 3))
         else:
-            reg = self.regressors(fid, unique)
+            reg = self.regressors(parent, unique)
             j0 = model.supports[parent][1]
-            block = reg[:, :, 6 * (j0 - 1):6 * j0]
-            RX = block[:, 3:, 3:]
-            pX_cross = block[:, :3, 3:] @ transpose(RX)
-            pX = np.stack([pX_cross[:, 2, 1], pX_cross[:, 0, 2], pX_cross[:, 1, 0]], axis=-1)
+            block = reg[:, :, 6 * (j0 - 1):6 * j0]     # Ad(X_j0), X_j0 = oMi^-1 jointPlacement(j0)
+            RX, B = block[:, 3:, 3:], block[:, :3, 3:]         # B = [pX]x RX: pX's entries from three rows
+            pX = np.stack([np.einsum("nk,nk->n", B[:, 2], RX[:, 1]), np.einsum("nk,nk->n", B[:, 0], RX[:, 2]),
+                           np.einsum("nk,nk->n", B[:, 1], RX[:, 0])], axis=-1)
             root = model.jointPlacements[j0]
-            R0 = root.rotation @ transpose(RX)
-            p0 = root.translation - np.einsum("nij,nj->ni", R0, pX)
-        # offsets act through the joints' columns Ad(X_j) S_j: folded into the placement map, one GEMM serves
-        # both (the (n*6, 6 n_joints) regressors times a (6 n_joints, n_free) map)
+            Ri = root.rotation @ transpose(RX)
+            pi = root.translation - np.einsum("nij,nj->ni", Ri, pX)
+        R0 = Ri @ placement.rotation
+        p0 = pi + Ri @ placement.translation
+        Rb, pb = ms.base.rotation, ms.base.translation
+        R = Rb @ R0
+        p = p0 @ Rb.T + pb
+        J = self.joint_jacobian(fid, unique, reg, Ri, pi) if jacobian else None
+        to_frame = placement.inverse().toActionMatrix()
+        if back is None:
+            return FrameArrays(R, p, R0, p0, J, to_frame)
+        return FrameArrays(R[back], p[back], R0[back], p0[back], None if J is None else J[back], to_frame)
+
+    def joint_jacobian(self, fid: int, samples: np.ndarray, reg: np.ndarray, Ri: np.ndarray,
+                       pi: np.ndarray) -> np.ndarray:
+        """(n, 6, n_free) LOCAL twist of frame fid's parent joint (pose (Ri, pi) on the robot) per free
+        parameter, from the joint's regressors; frame and base columns are carried into the joint's frame."""
+        ms, model = self.ms, self.model
+        n, nj, nf = len(samples), model.njoints - 1, ms.n_free
         J = self.constants.buffer(("jacobian", fid), (n, 6, nf))
-        np.matmul(reg.reshape(6 * n, 6 * nj), self.twist_map(ms), out=J.reshape(6 * n, nf))
+        tmap = self.twist_map(ms)
+        if not tmap.any():       # only frames and the base are free (a registration): no joint term
+            J[...] = 0.0
+        else:
+            # offsets act through the joints' columns Ad(X_j) S_j: folded into the placement map, one GEMM
+            # serves both (the (n*6, 6 n_joints) regressors times a (6 n_joints, n_free) map)
+            np.matmul(reg.reshape(6 * n, 6 * nj), tmap, out=J.reshape(6 * n, nf))
         if ms.compliance_cols or ms.backlash_cols:
             Jq = np.einsum("nijk,jk->nij", reg.reshape(n, 6, nj, 6), self.constants.subspace)   # (n, 6, nv)
             tau = self.constants.tau
             for k, iv, c, w in ms.compliance_cols:          # d q_link / d c = -tau_g
-                J[:, :, c] -= w * Jq[:, :, iv] * tau[unique, k][:, None]
+                J[:, :, c] -= w * Jq[:, :, iv] * tau[samples, k][:, None]
             for k, iv, c, w in ms.backlash_cols:            # d q_link / d b = d
-                J[:, :, c] += w * Jq[:, :, iv] * self.directions[unique, k][:, None]
-        if fid in ms.P_frame:
-            J += ms.P_frame[fid]
+                J[:, :, c] += w * Jq[:, :, iv] * self.directions[samples, k][:, None]
+        if fid in ms.P_frame:                  # constant columns, the frame's own only, seen from the joint
+            cols = np.flatnonzero(np.any(ms.P_frame[fid] != 0.0, axis=0))
+            J[:, :, cols] += (model.frames[fid].placement.toActionMatrix() @ ms.P_frame[fid])[:, cols]
         if ms.has_base_params:
             cols = np.flatnonzero(np.any(ms.P_base != 0.0, axis=0))    # the base's own columns only
             if cols[-1] - cols[0] + 1 == len(cols):
                 cols = slice(cols[0], cols[-1] + 1)
-            J[:, :, cols] += adjoint_inverse(R0, p0) @ ms.P_base[:, cols]
-        Rb, pb = ms.base.rotation, ms.base.translation
-        R = Rb @ R0
-        p = p0 @ Rb.T + pb
-        if back is None:
-            return FrameArrays(R, p, R0, p0, J)
-        return FrameArrays(R[back], p[back], R0[back], p0[back], J[back])
-
+            J[:, :, cols] += adjoint_inverse(Ri, pi) @ ms.P_base[:, cols]
+        return J
