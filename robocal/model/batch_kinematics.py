@@ -163,7 +163,7 @@ class BatchKinematics:
         samples = np.asarray(samples, dtype=int)
         ordered = len(samples) < 2 or bool(np.all(samples[1:] > samples[:-1]))
         unique, back = (samples, None) if ordered else np.unique(samples, return_inverse=True)
-        n, nj, nf = len(unique), model.njoints - 1, ms.n_free
+        n, nj = len(unique), model.njoints - 1
         parent = model.frames[fid].parentJoint
         placement = model.frames[fid].placement
         if parent == 0:      # fixed to the root: no joint moves it; its "joint" is the robot's root frame
