@@ -122,3 +122,22 @@ def test_bad_input_names_file_and_field_and_writes_nothing(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "result.json" in err and "arm_7_joint.offset" in err
     assert sorted(p.name for p in out.iterdir()) == before
+
+
+def test_evaluate_refuses_a_session_in_other_units_and_writes_nothing(tmp_path, capsys):
+    """The other session's positions 1000x too small for the config's unit (metres read as mm, say): the
+    cell-magnitude check cannot see it, the spread check calibrate runs does."""
+    cfg, _, _ = write_case(tmp_path, np.random.default_rng(6), n=20, geometric=False,
+                           parameters={"preset": "offsets"})
+    out = tmp_path / "out"
+    assert main(["calibrate", str(cfg), "-o", str(out), "-q", "--no-report"]) == 0
+    before = sorted(p.name for p in out.iterdir())
+    lines = (tmp_path / "data.csv").read_text().splitlines()
+    header = lines[0].split(",")
+    xyz = [header.index(c) for c in ("x", "y", "z")]
+    rows = [[float(v) * (1e-3 if k in xyz else 1.0) for k, v in enumerate(line.split(","))] for line in lines[1:]]
+    (tmp_path / "small.csv").write_text("\n".join([lines[0]] + [",".join(repr(v) for v in r) for r in rows]) + "\n")
+    assert main(["evaluate", str(out), str(tmp_path / "small.csv"), "--config", str(cfg)]) == 2
+    err = capsys.readouterr().err
+    assert "small.csv" in err and "data.units" in err
+    assert sorted(p.name for p in out.iterdir()) == before

@@ -21,6 +21,7 @@ from robocal.estimation.evaluation import (RANGE_MARGIN, BlockErrors, kfold, ran
                                            subset_residual, term_errors)
 from robocal.estimation.problem import Problem
 from robocal.estimation.registration import fit_subset
+from robocal.io.data_check import units_findings
 
 UNITS = {"length": (1e3, "mm", "3D position error"), "angle": (1e3, "mrad", "3D orientation error")}
 
@@ -99,6 +100,9 @@ def evaluate_result(result_dir, csv, config, refit: list[str] | None = None,
     result, source = load_result(result_dir)
     train = setup_for_data(config)
     setup = setup_for_data(config, csv)
+    findings = units_findings(setup)      # the other session in the config's units, as calibrate checks
+    if findings:
+        raise findings[0]
     params = setup.problem.params
     apply_result(params, result, source)
     refitted = []

@@ -10,6 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import pinocchio as pin
+from robocal.model.lie_arrays import skew
 
 ROWS = {"point": 3, "frame": 6, "distance": 1, "revolute": 5}
 
@@ -31,10 +32,6 @@ class Closure:
     rows: int
     length: float = 0.0
     axis: tuple | None = None
-
-
-def skew(a: np.ndarray) -> np.ndarray:
-    return np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
 
 
 def orthonormal_pair(a: np.ndarray) -> np.ndarray:

@@ -18,6 +18,7 @@ import numpy as np
 import pinocchio as pin
 
 from robocal.model import lie_arrays
+from robocal.model.lie_arrays import skew
 from robocal.model.parameters import Parameter
 
 
@@ -147,10 +148,6 @@ def batch_capable(cls: type) -> bool:
 
 
 # ---- geometry helpers shared by residual files ---------------------------------------------
-def skew(v: np.ndarray) -> np.ndarray:
-    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
-
-
 def point_jacobian(M: pin.SE3, p_local: np.ndarray) -> np.ndarray:
     """(3, 6) derivative of the world point M * p_local w.r.t. a LOCAL right twist of M."""
     R = M.rotation

@@ -23,7 +23,8 @@ import numpy as np
 import pinocchio as pin
 
 from robocal.errors import InputError
-from robocal.residuals.base import Aux, Residual, Term, basis_from_normal, skew, tilted_direction, vector_aux
+from robocal.model.lie_arrays import skew
+from robocal.residuals.base import Aux, Residual, Term, basis_from_normal, tilted_direction, vector_aux
 
 MIN_ALIGNMENT = 1e-6     # 1 + z0.w below this: the beam runs against z0 and b1, b2 are undefined
 

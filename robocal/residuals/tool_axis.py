@@ -8,7 +8,8 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from robocal.residuals.base import Residual, Term, basis_from_normal, skew
+from robocal.model.lie_arrays import skew
+from robocal.residuals.base import Residual, Term, basis_from_normal
 
 
 class ToolAxisResidual(Residual):

@@ -12,7 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from robocal.residuals.base import Residual, Term, point_jacobian, skew
+from robocal.model.lie_arrays import skew
+from robocal.residuals.base import Residual, Term, point_jacobian
 
 
 def _unit(v) -> np.ndarray:
