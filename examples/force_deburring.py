@@ -16,7 +16,8 @@ import pinocchio as pin
 import robocal
 from robocal.dynamics import (ActuatorModel, Environment, ExternalForceEstimator, FrictionModel, MotionParams,
                               PathGenerator, RobotSimulator, TickDifferentiator, Wall, movelf, servo_gains)
-from robocal.dynamics import CircularPath, ForceFilter, admittance_for_margins, margins, project_limits, tangent_loop
+from robocal.dynamics import (CircularPath, CurrentForceLoop, ForceFilter, admittance_for_margins, margins,
+                              project_limits, tangent_loop)
 
 TS, F_DES, FILTER_HZ, STEADY = 0.004, 20.0, 10.0, 250
 robot = robocal.load_example("ur5")
@@ -60,18 +61,13 @@ def deburr(params, ticks=1500, report=False, noise=0.005):
     sim = RobotSimulator(model, tcp, q0, actuator, friction, Environment(wall), gains, TS, current_noise=noise, seed=1)
     gen = PathGenerator(model, movelf(model, tcp, q0, pin.SE3(start.rotation, start.translation + 0.2 * along),
                                       params, force=F_DES), TS)
-    estimator = ExternalForceEstimator(model, tcp, actuator, friction)
-    differentiator = TickDifferentiator(TS, "central")       # one tick late, second-order accurate
-    wrench, last_current, rows = np.zeros(6), None, []
+    loop = CurrentForceLoop(gen, sim, ExternalForceEstimator(model, tcp, actuator, friction),
+                            TickDifferentiator(TS, "central"))      # one tick late, second-order accurate
+    rows = []
     if report:
         print(f"{'t [s]':>6s} {'s':>7s} {'speed [mm/s]':>13s} {'F_T est [N]':>12s} {'F_T true [N]':>13s}")
     for k in range(ticks):
-        setpoint = gen.tick(wrench)
-        measured = sim.step(setpoint.q_des)
-        state = differentiator.push(measured.q_mes)
-        if state is not None and last_current is not None:
-            wrench, _ = estimator.tick(*state, last_current)
-        last_current = measured.current
+        setpoint, measured = loop.tick()
         rows.append([setpoint.force, setpoint.sd * 200, measured.true_wrench[:3] @ along])
         if report and k % 150 == 149:
             print(f"{(k + 1) * TS:6.2f} {setpoint.s:7.4f} {setpoint.sd * 200:13.2f} {setpoint.force:12.2f} "

@@ -7,6 +7,7 @@ from scipy import signal
 
 import robocal
 from robocal.dynamics.actuators import ActuatorModel
+from robocal.dynamics.current_force_loop import CurrentForceLoop
 from robocal.dynamics.differentiation import TickDifferentiator
 from robocal.dynamics.environment import Environment, Wall
 from robocal.dynamics.external_force import ExternalForceEstimator
@@ -75,19 +76,9 @@ def run_contact(ur5, admittance, ticks, substeps=16, noise=0.0, filter_hz=None, 
                          substeps=substeps, current_noise=noise, seed=2)
     ins = movelf(m, fid, Q0, pin.SE3(start.rotation, start.translation + 0.05 * U),
                  MotionParams(0.25, 1.0, admittance=admittance, force_filter_hz=filter_hz), 20.0)
-    gen = PathGenerator(m, ins, TS)
-    est = ExternalForceEstimator(m, fid, ACTUATOR, FRICTION)
-    diff = TickDifferentiator(TS, "central")
-    wrench, last, speed = np.zeros(6), None, []
-    for _ in range(ticks):
-        sp = gen.tick(wrench)
-        meas = sim.step(sp.q_des)
-        state = diff.push(meas.q_mes)
-        if state is not None and last is not None:
-            wrench = est.tick(*state, last)[0]
-        last = meas.current
-        speed.append(sp.sd * ins.path.length)
-    return np.array(speed)
+    loop = CurrentForceLoop(PathGenerator(m, ins, TS), sim, ExternalForceEstimator(m, fid, ACTUATOR, FRICTION),
+                            TickDifferentiator(TS, "central"))
+    return np.array([loop.tick()[0].sd * ins.path.length for _ in range(ticks)])
 
 
 def test_stability_boundary_matches_simulation(ur5):

@@ -11,6 +11,7 @@ import pytest
 
 import robocal
 from robocal.dynamics.actuators import ActuatorModel
+from robocal.dynamics.current_force_loop import CurrentForceLoop
 from robocal.dynamics.differentiation import TickDifferentiator
 from robocal.dynamics.environment import Environment, Wall
 from robocal.dynamics.external_force import ExternalForceEstimator
@@ -46,17 +47,11 @@ def contact_run():
     sim = RobotSimulator(m, fid, Q0, act, fr, env, gains, TS, current_noise=NOISE, quantisation=LSB, seed=3)
     ins = movelf(m, fid, Q0, pin.SE3(start.rotation, start.translation + L * U),
                  MotionParams(0.25, 1.0, admittance=admittance, force_filter_hz=FILTER_HZ), F_DES)
-    gen = PathGenerator(m, ins, TS)
-    est = ExternalForceEstimator(m, fid, act, fr)
-    diff = TickDifferentiator(TS, "central")
-    wrench, last, rows = np.zeros(6), None, []
+    loop = CurrentForceLoop(PathGenerator(m, ins, TS), sim, ExternalForceEstimator(m, fid, act, fr),
+                            TickDifferentiator(TS, "central"))
+    rows = []
     for _ in range(TICKS):
-        sp = gen.tick(wrench)
-        meas = sim.step(sp.q_des)
-        state = diff.push(meas.q_mes)
-        if state is not None and last is not None:
-            wrench = est.tick(*state, last)[0]
-        last = meas.current
+        sp, meas = loop.tick()
         rows.append([sp.force, sp.sd * L, meas.true_wrench[:3] @ U])
     # noise of the unfiltered tangential estimate: F_u = dq^T tau with dq = J^-1 [u; 0], and
     # tau = K (I + n), n white with variance NOISE^2 + LSB^2/12 (quantisation) on each joint

@@ -2,6 +2,7 @@
 following (docs/dynamics.md), a servo simulator, and dynamic identification. See docs/dynamics.md."""
 from robocal.dynamics.actuators import ActuatorModel
 from robocal.dynamics.blending import BlendedPath
+from robocal.dynamics.current_force_loop import CurrentForceLoop
 from robocal.dynamics.differentiation import TickDifferentiator, differentiate
 from robocal.dynamics.environment import ConstantForce, Environment, ViscousLoad, Wall
 from robocal.dynamics.excitation import FourierTrajectory, fourier_excitation
@@ -24,7 +25,7 @@ from robocal.dynamics.simulator import RobotSimulator, servo_gains
 from robocal.dynamics.wrench import WrenchEstimate, WrenchMapper
 
 __all__ = [
-    "BlendedPath", "ForceFilter", "Margins", "TangentLoop", "admittance_for_margins", "margins", "tangent_loop", "movecf",
+    "BlendedPath", "CurrentForceLoop", "ForceFilter", "Margins", "TangentLoop", "admittance_for_margins", "margins", "tangent_loop", "movecf",
     "ActuatorModel", "FrictionModel", "differentiate", "TickDifferentiator", "JointState", "from_measurements",
     "from_setpoints", "ExternalForceEstimator", "ExternalForceEstimate", "WrenchMapper", "WrenchEstimate",
     "ForceSensorSource", "payload_inertia", "with_payload", "LinearPath", "JointPath", "CircularPath",
