@@ -229,7 +229,7 @@ def portable_config(config: str | Path, parameters: dict | None = None) -> bytes
     `parameters` merged in: stored in an output folder, it rebuilds the same model from there
     (`robocal evaluate`)."""
     path = Path(config).resolve()
-    raw = copy.deepcopy(yaml.safe_load(path.read_text(encoding="utf-8")))
+    raw = read_yaml(path)            # a fresh parse: edited below, never shared
     here = path.parent
     robot = raw.get("robot") or {}
     if "urdf" in robot:

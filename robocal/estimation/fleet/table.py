@@ -7,11 +7,10 @@ beside it that os.replace moves into place.
 """
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 
 from robocal.errors import InputError
+from robocal.io.text_files import write_atomic
 
 IDENTITY = ("key", "unit", "date", "serial", "site", "input_hash", "config_hash")
 OUTCOME = ("status", "message", "iterations", "rows", "sigma_ratio", "condition", "elapsed_s", "worker",
@@ -43,15 +42,9 @@ def write_table(path: str | Path, rows: list[dict]) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     schema = schema_of(rows)
     table = pa.Table.from_pylist([{k: r.get(k) for k in schema.names} for r in rows], schema=schema)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    os.close(fd)
-    try:
-        pq.write_table(table, tmp)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path
+    sink = pa.BufferOutputStream()      # the whole file in memory (a fleet table is small), then written atomically
+    pq.write_table(table, sink)
+    return write_atomic(path, sink.getvalue().to_pybytes())
 
 
 def read_table(path: str | Path) -> list[dict]:
