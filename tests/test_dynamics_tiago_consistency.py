@@ -1,5 +1,5 @@
 """Physical consistency: the pseudo-inertia PSD test is necessary and sufficient, and the
-PSD-constrained least squares (psd_admm.py) returns realisable bodies at the constrained optimum."""
+PSD-constrained least squares (psd_qp.py) returns realisable bodies at the constrained optimum."""
 from pathlib import Path
 
 import numpy as np
@@ -7,7 +7,7 @@ import pytest
 
 from robocal.dynamics.identify_config import reduced_model
 from robocal.dynamics.inertial import is_physically_consistent, parameter_vector, pseudo_inertia
-from robocal.dynamics.psd_admm import FROM_SVEC, TO_SVEC, solve_psd_qp
+from robocal.dynamics.psd_qp import TO_SVEC, nearest_realisable, solve_psd_qp
 
 URDF = Path(__file__).resolve().parents[1] / "examples/tiago_mocap/data/tiago_48_schunk.urdf"
 TIAGO_JOINTS = ["torso_lift_joint"] + [f"arm_{i}_joint" for i in range(1, 8)]
@@ -51,12 +51,24 @@ def test_tiago_cad_arm_1_is_not_realisable():
     assert [k for k, ok in verdict.items() if not ok] == ["arm_1_joint"]
 
 
-def test_svec_maps_are_inverse_and_isometric():
+def test_svec_map_is_invertible_and_isometric():
+    """Clarabel's PSD triangle cone is defined in isometric coordinates: norms must be kept, and
+    the map from the 10 inertial parameters must be one to one."""
     rng = np.random.default_rng(0)
     p = rng.normal(size=10)
-    assert np.allclose(FROM_SVEC @ TO_SVEC @ p, p, atol=1e-12)
+    assert np.allclose(np.linalg.solve(TO_SVEC, TO_SVEC @ p), p, atol=1e-12)
     J = pseudo_inertia(p)
     assert np.isclose(np.linalg.norm(TO_SVEC @ p), np.linalg.norm(J), rtol=1e-12)
+
+
+def test_nearest_realisable_keeps_realisable_bodies_and_repairs_others():
+    rng = np.random.default_rng(3)
+    body = point_masses(rng.uniform(0.5, 1.5, 4), rng.normal(0, 0.2, (4, 3)))
+    assert np.allclose(nearest_realisable(body), body, atol=1e-12)
+    broken = body.copy()
+    broken[4:10] = [0.01, 0, 0.01, 0, 0, 0.05]          # triangle inequality broken
+    assert not is_physically_consistent(broken)
+    assert is_physically_consistent(nearest_realisable(broken))
 
 
 def objective(H, q, x):
@@ -75,7 +87,7 @@ def test_psd_qp_reaches_the_constrained_optimum(feasible_optimum):
     A = rng.normal(size=(200, 22))
     H, q = A.T @ A, A.T @ (A @ truth)
     lower = np.array([-np.inf, 0.0])
-    res = solve_psd_qp(H, q, 2, lower, tol=1e-9, max_iterations=50000)
+    res = solve_psd_qp(H, q, 2, lower)
     assert res.converged
     assert all(is_physically_consistent(b) for b in res.x[:20].reshape(2, 10))
     if feasible_optimum:

@@ -5,7 +5,7 @@ inertia). The fit minimises
     sum_rows (w (X_in pi + X_ex phi - tau))^2 + lambda (n_rows / n_prior) sum ((pi - pi_cad) / s)^2
 subject to every body's pseudo-inertia positive semidefinite (the necessary and sufficient
 condition for pi to be a mass distribution) and Coulomb friction, viscous friction and rotor
-inertia >= 0. It is convex; psd_admm.py solves it and returns a point of the constraint set.
+inertia >= 0. It is convex; psd_qp.py solves it (Clarabel) and returns a point of the constraint set.
 s are the CAD body's natural scales (mass m, first moments m l, inertias m l^2, with l the CAD
 body's RMS mass distance from its joint, sqrt(tr Sigma / m)); lambda = 1 weighs the prior like the
 whole data set. `choose_prior_weight` picks lambda from the data: fit on the earlier part of the
@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from robocal.dynamics.inertial import pseudo_inertia
-from robocal.dynamics.psd_admm import solve_psd_qp
+from robocal.dynamics.psd_qp import solve_psd_qp
 from robocal.dynamics.regression import Regressor, row_weights
 from robocal.errors import InputError
 
@@ -32,8 +32,8 @@ DEFAULT_GRID = tuple(10.0 ** np.arange(-4, 2.01, 0.5))     # half-decade steps
 @dataclass
 class ConsistentFit:
     """inertial (10 nb,) physically consistent parameters; extra (n_extra,) in the regressor's
-    column order; prior_weight lambda; iterations: ADMM iterations; data_cost: the data part of
-    the objective (weighted units); converged: ADMM met its tolerance."""
+    column order; prior_weight lambda; iterations of the conic solver; data_cost: the data part of
+    the objective (weighted units); converged: the solver met its tolerance (status: its word)."""
 
     inertial: np.ndarray
     extra: np.ndarray
@@ -41,6 +41,7 @@ class ConsistentFit:
     iterations: int
     data_cost: float
     converged: bool
+    status: str = "Solved"
 
     @property
     def params(self) -> np.ndarray:
@@ -61,10 +62,9 @@ def prior_scales(cad: np.ndarray) -> np.ndarray:
     return np.concatenate(out)
 
 
-def fit_consistent(reg: Regressor, tau: np.ndarray, sigma: np.ndarray, cad: np.ndarray, prior_weight: float,
-                   warm: tuple | None = None) -> tuple[ConsistentFit, tuple]:
-    """Consistent fit at one prior weight (psd_admm.py). warm: the solver state of a previous fit.
-    Returns the fit and its solver state."""
+def fit_consistent(reg: Regressor, tau: np.ndarray, sigma: np.ndarray, cad: np.ndarray,
+                   prior_weight: float) -> ConsistentFit:
+    """Consistent fit at one prior weight (psd_qp.py)."""
     tau = np.asarray(tau, float)
     n_in = reg.n_inertial
     if len(cad) != n_in:
@@ -77,36 +77,34 @@ def fit_consistent(reg: Regressor, tau: np.ndarray, sigma: np.ndarray, cad: np.n
     prior = np.r_[(len(y) / n_in) * prior_weight / prior_scales(cad) ** 2, np.zeros(len(names))]
     H = A.T @ A + np.diag(prior)
     q = A.T @ y + prior * np.r_[cad, np.zeros(len(names))]
-    sol = solve_psd_qp(H, q, n_in // 10, lower, warm, start=np.r_[cad, np.maximum(0.0, lower)])
+    sol = solve_psd_qp(H, q, n_in // 10, lower)
     data_cost = float(np.sum((A @ sol.x - y) ** 2))
     return ConsistentFit(sol.x[:n_in], sol.x[n_in:], float(prior_weight), sol.iterations, data_cost,
-                         sol.converged), sol.state
+                         sol.converged, sol.status)
 
 
 @dataclass
 class PriorWeightChoice:
     """grid of lambda values, score (weighted mean-square torque error on the held-out part of the
-    training window) per value, the chosen lambda, the fitted share of the training window and
-    the solver state at the chosen lambda (a warm start for the final fit)."""
+    training window) per value, the chosen lambda and the fitted share of the training window."""
 
     grid: list[float]
     scores: list[float]
     chosen: float
     split_fraction: float
-    state: tuple | None = None
 
 
 def choose_prior_weight(reg_fit: Regressor, tau_fit: np.ndarray, reg_check: Regressor, tau_check: np.ndarray,
                         sigma: np.ndarray, cad: np.ndarray, grid=DEFAULT_GRID,
                         split_fraction: float = 0.75) -> PriorWeightChoice:
-    """Fit on (reg_fit, tau_fit), score on (reg_check, tau_check) for each lambda of `grid` (from the
-    largest: each fit warm-starts the next); ties go to the larger lambda (closer to CAD)."""
-    scores, states, start = {}, {}, None
-    for lam in sorted(grid, reverse=True):
-        fit, start = fit_consistent(reg_fit, tau_fit, sigma, cad, lam, start)
+    """Fit on (reg_fit, tau_fit), score on (reg_check, tau_check) for each lambda of `grid`; ties go
+    to the larger lambda (closer to CAD)."""
+    scores = {}
+    for lam in grid:
+        fit = fit_consistent(reg_fit, tau_fit, sigma, cad, lam)
         err = (fit.predict(reg_check) - tau_check) / sigma
-        scores[lam], states[lam] = float(np.mean(err**2)), start
+        scores[lam] = float(np.mean(err**2))
     best = min(scores.values())
     chosen = max(lam for lam, s in scores.items() if s <= best * (1 + 1e-9))
     ordered = sorted(scores)
-    return PriorWeightChoice(ordered, [scores[k] for k in ordered], chosen, split_fraction, states[chosen])
+    return PriorWeightChoice(ordered, [scores[k] for k in ordered], chosen, split_fraction)

@@ -34,7 +34,7 @@ def result_dict(res: IdentifyResult) -> dict:
                 "residual_rms_per_joint": ols.sigma.tolist(), "dropped": ols.selection.describe()},
         "consistent": {"prior_weight": fit.prior_weight, "prior_grid": res.prior.grid,
                        "prior_scores": res.prior.scores, "prior_split": res.prior.split_fraction,
-                       "admm_iterations": fit.iterations, "admm_converged": fit.converged,
+                       "solver_iterations": fit.iterations, "solver_status": fit.status, "converged": fit.converged,
                        "inertial": {b: p.tolist() for b, p in zip(bodies, fit.inertial.reshape(-1, 10))},
                        "extra": dict(zip(res.consistent_extra_names(), fit.extra.tolist())),
                        "pseudo_inertia_min_eigenvalue": {b: v[0] for b, v in res.consistency.items()},
@@ -50,7 +50,11 @@ def result_dict(res: IdentifyResult) -> dict:
 def summary_text(res: IdentifyResult) -> str:
     d = result_dict(res)
     units = d["torque_units"]
-    lines = [f"Dynamic identification: {res.config.source}", "", "Signal processing:"]
+    lines = [f"Dynamic identification: {res.config.source}", ""]
+    if not res.consistent.converged:        # said before any figure
+        lines += [f"WARNING: the consistent fit's solver stopped short of its tolerance (Clarabel status "
+                  f"{res.consistent.status}); its figures below are not an optimum.", ""]
+    lines.append("Signal processing:")
     lines += [f"  - {c}" for c in res.processed.choices]
     vc = res.processed.velocity_check
     idx = [res.model.joints[res.model.getJointId(j)].idx_v for j in res.recorded]
@@ -63,7 +67,7 @@ def summary_text(res: IdentifyResult) -> str:
               f"OLS: {d['ols']['rank']} base parameters, condition number {d['ols']['condition_number']:.4g}.",
               f"Consistent fit: CAD prior weight {res.consistent.prior_weight:.3g} chosen on the training window "
               f"(fit on its first {100 * res.prior.split_fraction:.0f} %, scored on the rest); "
-              f"ADMM {res.consistent.iterations} iterations, converged: {res.consistent.converged}.",
+              f"Clarabel {res.consistent.iterations} iterations, status {res.consistent.status}.",
               "Every body's pseudo-inertia PSD: " + str(all(v[1] for v in res.consistency.values())),
               "", "Held-out torque RMSE per joint (% of the joint's torque range in the window):"]
     header = f"  {'model':24s}" + "".join(f"{j:>22s}" for j in res.recorded)

@@ -3,7 +3,7 @@ consistent), validate on a held-out window, and estimate the external force in f
 
 `identify_from_config(path_or_dict, base_dir)` returns an `IdentifyResult`; identify_report.py
 writes it. Models compared side by side: 'cad' (the URDF's inertias, no friction), 'ols' (base
-parameters by weighted least squares), 'consistent' (log-Cholesky fit with the CAD prior).
+parameters by weighted least squares), 'consistent' (every body realisable, the CAD values as a prior; consistent_fit.py).
 See docs/dynamics_tiago.md.
 """
 from __future__ import annotations
@@ -114,7 +114,7 @@ def identify_from_config(path_or_dict, base_dir=None) -> IdentifyResult:
     first[idx[:n_fit]], second[idx[n_fit:]] = True, True
     prior = choose_prior_weight(regressor(first), tau_dec[first], regressor(second), tau_dec[second],
                                 ols.sigma, cad, cfg.prior_grid, cfg.prior_split)
-    consistent, _ = fit_consistent(reg_train, tau_train, ols.sigma, cad, prior.chosen, prior.state)
+    consistent = fit_consistent(reg_train, tau_train, ols.sigma, cad, prior.chosen)
     predict = {"cad": lambda reg: (reg.X[:, :reg.n_inertial] @ cad).reshape(-1, len(rec_idx)),
                "ols": ols.predict, "consistent": consistent.predict}
     t_range = (tau_check.max(axis=0) - tau_check.min(axis=0)).tolist()
