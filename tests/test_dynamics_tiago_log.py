@@ -1,11 +1,14 @@
 """The shipped TIAGo log through the config alone: the physically consistent model predicts the
 held-out torques better than the CAD model on every recorded joint, every body is realisable, and
 the free-motion external force is smaller than with the CAD model. Figures: docs/dynamics_tiago.md."""
+import dataclasses
+
 import numpy as np
 import pinocchio as pin
 import pytest
 
 from robocal.dynamics.identify_config import velocity_index
+from robocal.dynamics.identify_report import summary_text
 from robocal.dynamics.identify_run import identify_from_config
 from robocal.dynamics.inertial import is_physically_consistent
 from robocal.dynamics.regression import build_regressor
@@ -14,11 +17,7 @@ from tiago_dynamics_cases import CONFIG, base_config
 
 @pytest.fixture(scope="module")
 def result():
-    cfg = base_config()
-    # the CLI's grid search over the prior weight (13 values, benchmarks/dynamics_tiago.py) chooses
-    # 1.0 on this log; the test fits that value only, to stay fast
-    cfg["model"]["prior_grid"] = [1.0]
-    return identify_from_config(cfg, CONFIG.parent)
+    return identify_from_config(base_config(), CONFIG.parent)      # the example's own config
 
 
 def test_consistent_model_beats_cad_and_stays_near_ols(result):
@@ -57,3 +56,12 @@ def test_consistent_model_reproduces_the_fit_through_rnea(result):
     non_inertial = [i for i, n in enumerate(reg.names[reg.n_inertial:]) if not n.endswith("armature")]
     extra = (reg.X[:, reg.n_inertial:][:, non_inertial] @ result.consistent.extra[non_inertial]).reshape(-1, len(rec))
     assert np.allclose(rnea + extra, result.consistent.predict(reg), atol=1e-9 * np.abs(rnea).max())
+
+
+def test_a_solver_stopping_short_is_said_before_any_figure(result):
+    stopped = dataclasses.replace(result, consistent=dataclasses.replace(result.consistent, converged=False,
+                                                                         status="MaxIterations"))
+    text = summary_text(stopped)
+    assert text.index("WARNING") < text.index("Held-out torque RMSE")
+    assert "MaxIterations" in text
+    assert "WARNING" not in summary_text(result)

@@ -2,26 +2,12 @@
 regressor, OLS base parameters) on a simulated TIAGo trajectory with the shipped log's irregular
 time stamps and its noise levels (positions and efforts)."""
 import numpy as np
-from scipy.signal import butter, sosfiltfilt
 from scipy.stats import chi2
 
 from robocal.dynamics.identification import base_values_of
 from robocal.dynamics.identify_run import identify_from_config
 from robocal.dynamics.inertial import parameter_vector
 from tiago_dynamics_cases import synthetic_log
-
-
-def noise_inflation(cutoff_hz: float, fs: float, order: int, decimation: int) -> float:
-    """Variance factor of a mean over decimated samples of zero-phase filtered white noise, relative
-    to independent samples: sum over lags of the decimated noise autocorrelation (the OLS standard
-    errors assume independent rows)."""
-    impulse = np.zeros(4001)
-    impulse[2000] = 1.0
-    h = sosfiltfilt(butter(order, cutoff_hz, fs=fs, output="sos"), impulse)
-    r = np.correlate(h, h, "full")
-    mid = len(r) // 2
-    lags = r[mid::decimation]
-    return float((lags[0] + 2 * lags[1:].sum()) / lags[0])
 
 
 def test_whole_path_recovers_base_parameters_within_noise(tmp_path):
@@ -31,16 +17,14 @@ def test_whole_path_recovers_base_parameters_within_noise(tmp_path):
     sel = res.ols.selection
     true_full = np.r_[parameter_vector(truth), extra.reshape(-1)]
     beta_true = base_values_of(sel, true_full)
-    p = res.processed
-    inflation = noise_inflation(p.cutoff_hz, p.fs_raw, res.config.signal.order, p.decimation)
-    z = (res.ols.values - beta_true) / (res.ols.std * np.sqrt(inflation))
-    # inflation: the filtered noise is correlated across decimated samples (noise_inflation);
-    # with correct standard errors, sum z^2 ~ chi-square(rank): its 99.9 % quantile bounds it, and
+    z = (res.ols.values - beta_true) / res.ols.std
+    # the standard errors allow for the filtered noise's correlation across decimated samples
+    # (serial_correlation.py; without it sum z^2 is 194); with correct standard errors, sum z^2 ~ chi-square(rank): its 99.9 % quantile bounds it, and
     # no single |z| exceeds 4.5 (two-sided 7e-6 each, < 0.05 % over the ~60 parameters)
     assert np.sum(z**2) < chi2.ppf(0.999, sel.rank), (np.sum(z**2), sel.rank)
     assert np.max(np.abs(z)) < 4.5
     # the tolerance is not vacuous: the CAD model (the truth without its 0.1-0.3 kg point masses and
     # without friction) fails the same test by far
     cad_full = np.r_[parameter_vector(res.model), np.zeros(extra.size)]
-    z_cad = (base_values_of(sel, cad_full) - beta_true) / (res.ols.std * np.sqrt(inflation))
+    z_cad = (base_values_of(sel, cad_full) - beta_true) / res.ols.std
     assert np.sum(z_cad**2) > 100 * chi2.ppf(0.999, sel.rank)

@@ -77,12 +77,13 @@ def summary_text(res: IdentifyResult) -> str:
         lines.append(f"  {LABELS[m]:24s}" + "".join(f"{r:10.3f} {u:3s} ({p:5.1f} %)"
                                                         for r, u, p in zip(v["rmse"], units, v["percent_of_range"])))
     ratio = np.array(res.validation["consistent"]["rmse"]) / np.array(res.validation["ols"]["rmse"])
+    wn = res.within_noise
     lines += ["  consistent / OLS: " + ", ".join(f"{r:.3f}" for r in ratio),
-              f"Training: the consistent fit raises the weighted residual by "
-              f"{res.within_noise['residual_increase_in_noise_units']:.4g} noise units "
-              f"(chi-square 95 % for {res.within_noise['base_parameters']} base parameters: "
-              f"{res.within_noise['chi2_95']:.4g}); per-joint RMS ratio to OLS "
-              + ", ".join(f"{r:.3f}" for r in res.within_noise["rms_ratio"]), "",
+              f"Training: the consistent fit's base parameters lie at squared distance "
+              f"{wn['distance_in_noise_units']:.4g} from OLS in noise units (chi-square 95 % for "
+              f"{wn['base_parameters']} base parameters: {wn['chi2_95']:.4g}; the filtered noise's correlation "
+              f"across samples inflates variances by {wn['noise_inflation']:.3g}); per-joint RMS "
+              "ratio to OLS " + ", ".join(f"{r:.3f}" for r in wn["rms_ratio"]), "",
               f"External force at {res.wrench_rms['frame']} during free motion (validation window), RMS per "
               "world axis x, y, z (force only):"]
     for m in MODELS:

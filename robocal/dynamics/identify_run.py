@@ -23,6 +23,7 @@ from robocal.dynamics.identify_config import (IdentifyConfig, load_identify_conf
 from robocal.dynamics.inertial import is_physically_consistent, parameter_vector, pseudo_inertia, with_parameters
 from robocal.dynamics.log_loading import JointLog, load_joint_log
 from robocal.dynamics.regression import BaseFit, Regressor, build_regressor, fit_base
+from robocal.dynamics.serial_correlation import filtered_noise_inflation
 from robocal.dynamics.wrench import WrenchMapper
 from robocal.errors import InputError
 
@@ -103,7 +104,8 @@ def identify_from_config(path_or_dict, base_dir=None) -> IdentifyResult:
 
     reg_train, reg_check = regressor(train), regressor(check)
     tau_train, tau_check = tau_dec[train], tau_dec[check]
-    ols = fit_base(reg_train, tau_train)
+    inflation = filtered_noise_inflation(proc.cutoff_hz, proc.fs_raw, cfg.signal.order, proc.decimation)
+    ols = fit_base(reg_train, tau_train, inflation=inflation)
     if ols.selection.rank == 0:
         raise InputError("the training window identifies no parameter", source=str(cfg.files["position"]),
                          field="windows.train")
@@ -158,16 +160,19 @@ def _check_motion(cfg: IdentifyConfig, log: JointLog, rec_cols: list[int]) -> No
 def _within_noise(reg: Regressor, tau: np.ndarray, ols: BaseFit, fit: ConsistentFit, beta_c: np.ndarray) -> dict:
     """How far the consistent fit lies from the unconstrained one, in the unconstrained fit's noise:
     the weighted residual increase (= squared Mahalanobis distance of its base parameters from the
-    OLS estimate, the model being linear in them) against the chi-square 95 % quantile."""
+    OLS estimate, the model being linear in them) divided by the filtered noise's variance inflation
+    (serial_correlation.py), against the chi-square 95 % quantile."""
     w = np.tile(1.0 / ols.sigma, len(tau))
     y = tau.reshape(-1)
     rss = lambda pred: float(np.sum(((pred.reshape(-1) - y) * w) ** 2))     # noqa: E731
     s2 = rss(ols.predict(reg)) / ols.dof
     increase = (rss(fit.predict(reg)) - rss(ols.predict(reg))) / s2
     p = ols.selection.rank
-    return {"residual_increase_in_noise_units": increase, "chi2_95": float(chi2.ppf(0.95, p)),
-            "base_parameters": p, "rms_ratio": (np.sqrt(np.mean((fit.predict(reg) - tau) ** 2, axis=0))
-                                               / np.sqrt(np.mean((ols.predict(reg) - tau) ** 2, axis=0))).tolist(),
+    return {"distance_in_noise_units": increase / ols.inflation, "noise_inflation": ols.inflation,
+            "residual_increase_independent_rows": increase, "chi2_95": float(chi2.ppf(0.95, p)),
+            "base_parameters": p,
+            "rms_ratio": (np.sqrt(np.mean((fit.predict(reg) - tau) ** 2, axis=0))
+                          / np.sqrt(np.mean((ols.predict(reg) - tau) ** 2, axis=0))).tolist(),
             "max_base_deviation_in_std": float(np.max(np.abs(beta_c - ols.values) / ols.std))}
 
 

@@ -6,7 +6,8 @@ Per sample and recorded joint j:  tau_j = Y_j(q, v, a) pi + Fc_j tanh(v_j / eps)
 viscous friction, tau0 a torque offset and Ia the rotor inertia reflected to the joint (armature).
 Joints without recorded torque stay in the model (their bodies load the others) but give no rows.
 Base parameters are chosen by robocal.estimation.identifiability.select_base_parameters on the weighted
-regressor; the weights 1/sigma_j come from the residuals (two passes). See docs/dynamics_tiago.md.
+regressor; the weights 1/sigma_j come from the residuals (two passes); standard errors allow for
+the filtered noise's correlation across samples (serial_correlation.py). See docs/dynamics_tiago.md.
 """
 from __future__ import annotations
 
@@ -84,8 +85,10 @@ def _velocity_name(model: pin.Model, idx_v: int) -> str:
 
 @dataclass
 class BaseFit:
-    """Unconstrained fit. selection: the base-parameter choice; values, std: base parameters and
-    their standard errors; sigma (nr,) per-joint residual RMS used as weights (torque units);
+    """Unconstrained fit. selection: the base-parameter choice; values: base parameters; std: their
+    standard errors, allowing for the filtered noise's correlation across samples (inflation, the
+    variance factor of serial_correlation.py); std_independent: the textbook standard errors, which
+    assume independent rows; sigma (nr,) per-joint residual RMS used as weights (torque units);
     condition: condition number of the column-scaled weighted base regressor; dof: rows - parameters."""
 
     selection: BaseSelection
@@ -94,6 +97,8 @@ class BaseFit:
     sigma: np.ndarray
     condition: float
     dof: int
+    std_independent: np.ndarray | None = None
+    inflation: float = 1.0
 
     @property
     def names(self) -> list[str]:
@@ -108,8 +113,9 @@ def row_weights(sigma: np.ndarray, n_samples: int) -> np.ndarray:
     return np.tile(1.0 / np.asarray(sigma, float), n_samples)
 
 
-def fit_base(reg: Regressor, tau: np.ndarray, rtol: float = 1e-6) -> BaseFit:
-    """Weighted least squares of tau (T, nr) on the base columns of `reg`."""
+def fit_base(reg: Regressor, tau: np.ndarray, rtol: float = 1e-6, inflation: float = 1.0) -> BaseFit:
+    """Weighted least squares of tau (T, nr) on the base columns of `reg`. inflation: the factor by
+    which correlation across samples inflates the variances (serial_correlation.py)."""
     tau = np.asarray(tau, float)
     nr = len(reg.recorded)
     if tau.shape[1] != nr or tau.size != reg.X.shape[0]:
@@ -125,5 +131,6 @@ def fit_base(reg: Regressor, tau: np.ndarray, rtol: float = 1e-6) -> BaseFit:
         sigma = np.maximum(np.sqrt(np.mean(resid**2, axis=0)), 1e-12 * max(1.0, np.abs(y).max()))
     dof = max(len(y) - sel.rank, 1)
     s2 = float(np.sum((resid.reshape(-1) * w) ** 2) / dof)
-    std = np.sqrt(np.diag(covariance(Xb, s2)))
-    return BaseFit(sel, beta, std, sigma, float(sel.condition), dof)
+    std_independent = np.sqrt(np.diag(covariance(Xb, s2)))
+    return BaseFit(sel, beta, std_independent * np.sqrt(inflation), sigma, float(sel.condition), dof,
+                   std_independent, float(inflation))
