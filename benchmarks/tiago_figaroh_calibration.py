@@ -116,6 +116,8 @@ def report(runs: dict, repeats: int) -> list[str]:
     e2e_ratio = np.median(runs["figaroh_script"]) / np.median(runs["robocal_cli"])
     lines += [
         f"| fit: calibrate() / solve_optimisation() | {spread(fit_r)} | {spread(fit_f)} | {fit_ratio:.1f}x |",
+        f"| FIGAROH's set-up before it: config, data, initialize() (its parameter selection) | | "
+        f"{spread([f['build_initialize_s'] for f in fig])} | |",
         f"| end to end: `robocal calibrate --no-report` / FIGAROH driver script | {spread(runs['robocal_cli'])} | "
         f"{spread(runs['figaroh_script'])} | {e2e_ratio:.1f}x |",
         f"| parameters fitted | {rob[0]['parameters']} | {fig[0]['parameters']} | |",

@@ -79,8 +79,9 @@ def main(request_path: str) -> None:
     work.mkdir(parents=True, exist_ok=True)
     training = convert(request["training"], work / "training.csv")
     validation = convert(request["validation"], work / "validation.csv") if request["mode"] == "fit" else None
+    t0 = time.perf_counter()
     calib = build(request, training)
-    answer = {"mode": request["mode"]}
+    answer = {"mode": request["mode"], "build_initialize_s": time.perf_counter() - t0}
     if request["mode"] == "fit":
         t0 = time.perf_counter()
         result, excluded = calib.solve_optimisation()
