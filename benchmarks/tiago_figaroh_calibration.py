@@ -7,7 +7,8 @@ BL) at its full_params level with benchmarks/figaroh/tiago_calibration.yaml, its
 shipped CSVs (benchmarks/figaroh/calibration_driver.py). In every repeat, alternating so that a change of the
 machine's load hits both alike, four fresh processes:
 - fit: robocal's calibrate() and FIGAROH's solve_optimisation(), each timed around that call alone, after
-  the process has loaded the data and built its problem;
+  the process has loaded the data and built its problem (FIGAROH's parameter selection runs before, in
+  initialize(), and is printed apart; robocal's calibrate() includes its own);
 - end to end: `robocal calibrate full_bl.yaml -o DIR --no-report` and FIGAROH's whole driver script (fit,
   quality report, parameters written), each timed from process start to exit.
 Medians over the repeats. RMSE (both tools, same postures): norm RMSE of BL's position error,
