@@ -171,7 +171,7 @@ def main():
     if not args.figaroh:
         print(skip_message())
         return
-    print()
+    print(flush=True)      # before the child writes to the same stdout
     # a subprocess: that script puts this tree first on sys.path, which would shadow a --baseline tree here
     subprocess.run([sys.executable, os.path.join(HERE, "tiago_figaroh_calibration.py"), "--figaroh", "--figaroh-venv",
                     str(args.figaroh_venv), "--repeats", str(REPEATS)], check=True)
