@@ -125,7 +125,8 @@ def report(runs: dict, repeats: int) -> list[str]:
         f"| iterations / objective evaluations | {rob[0]['iterations']} iterations (analytic Jacobian) | "
         f"{fig[0]['objective_calls']} objective calls (finite-difference Jacobian) | |",
         f"| training RMSE (37 postures) | {rob[0]['train_rmse_mm']:.2f} | {fig[0]['train_rmse_mm']:.2f} | |",
-        f"| validation RMSE (62 postures) | {rob[0]['validation_rmse_mm']:.2f} | {fig[0]['validation_rmse_mm']:.2f} | |",
+        f"| validation RMSE (62 postures) | {rob[0]['validation_rmse_mm']:.2f} | "
+        f"{fig[0]['validation_rmse_mm']:.2f} | |",
         "",
         f"issue 20 asks calibrate() >= {ISSUE_FIT_RATIO:g}x faster than solve_optimisation(): measured "
         f"{fit_ratio:.1f}x, {'met' if fit_ratio >= ISSUE_FIT_RATIO else 'NOT met'}; end to end >= "

@@ -39,8 +39,8 @@ def test_a_failing_driver_raises_with_its_error_output(tmp_path, monkeypatch):
 
 
 def test_a_driver_answer_comes_back_with_its_wall_time(tmp_path, monkeypatch):
-    (tmp_path / "echo.py").write_text(
-        "import json, sys\nr = json.load(open(sys.argv[1]))\njson.dump({'twice': 2 * r['x']}, open(r['result'], 'w'))\n")
+    (tmp_path / "echo.py").write_text("import json, sys\nr = json.load(open(sys.argv[1]))\n"
+                                      "json.dump({'twice': 2 * r['x']}, open(r['result'], 'w'))\n")
     monkeypatch.setattr(figaroh_env, "DRIVERS", tmp_path)
     answer, seconds = figaroh_env.run_driver(Path(sys.executable), "echo.py", {"x": 21})
     assert answer == {"twice": 42} and seconds > 0

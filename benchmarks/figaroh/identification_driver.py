@@ -6,7 +6,8 @@ python (benchmarks/figaroh_env.py), never with robocal's.
 The request (JSON) names: config (tiago_identification.yaml beside this file), urdf, position / velocity /
 effort (robocal's shipped CSVs, examples/tiago_dynamics/data/), train_rows [first, end) (the rows of
 robocal's training window), validate [t0, t1] s, torque_scale per joint (gear ratio x motor constant; 1 for
-a joint absent from it, whose effort is not fitted), result (where this script writes its JSON answer). Steps, as FIGAROH's TIAGo example (thanhndv212/figaroh-examples,
+a joint absent from it, whose effort is not fitted), result (where this script writes its JSON answer).
+Steps, as FIGAROH's TIAGo example (thanhndv212/figaroh-examples,
 examples/tiago/identification.py with utils/tiago_tools.py TiagoIdentification) runs them: a
 BaseIdentification subclass loads the three CSVs; initialize(truncate=train_rows) filters (median 5, then
 Butterworth 2 Hz, order 4, zero phase), differentiates positions twice, converts efforts, builds the
