@@ -11,7 +11,8 @@ Table 1, UR5 full calibration (joint offsets and placements, tool, base; 6D pose
 Table 2, calibrate() wall time: batched vs the reference evaluation (with today's solver), and with
 --baseline DIR the same fit run by another robocal tree (e.g. `git archive <commit> robocal | tar -x -C DIR`)
 in a subprocess. Table 3: TIAGo (examples/tiago_mocap/full_bl.yaml) calibrate() and the command line.
-FIGAROH is not timed here: installing it into its own virtual environment is not implemented yet.
+With --figaroh [--figaroh-venv PATH], Table 4 is benchmarks/tiago_figaroh_calibration.py run as a subprocess:
+the same TIAGo fit against FIGAROH 1.0.2 (installed into its own virtual environment), 3 repeats.
 Each figure is the median of 3 runs; the machine may be shared, so compare ratios within the run.
 """
 import argparse
@@ -33,6 +34,7 @@ from synthetic_cases import ur5_pose_problem  # noqa: E402
 from robocal.design.simulate import perturb, simulate_measurements  # noqa: E402
 from robocal.estimation.calibrate import calibrate  # noqa: E402
 from robocal.io.config import load_config  # noqa: E402
+from figaroh_env import add_options, skip_message  # noqa: E402
 
 REPEATS = 3
 SIZES = (100, 1000, 10000)
@@ -142,6 +144,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--baseline", help="a robocal tree whose calibrate() is timed on the same UR5 fits")
     ap.add_argument("--fit-only", type=int, help=argparse.SUPPRESS)
+    add_options(ap)
     args = ap.parse_args()
     if args.fit_only is not None:      # the --baseline subprocess: only what an older tree also has
         print(fit_time(args.fit_only))
@@ -165,7 +168,13 @@ def main():
     new, ref, cli = tiago_times()
     print(f"\nTIAGo full_bl (median of 3): calibrate() batched {1e3 * new:.1f} ms, reference {1e3 * ref:.1f} ms; "
           f"`robocal calibrate --no-report` end to end {1e3 * cli:.0f} ms")
-    print("FIGAROH comparison: not implemented in this script (see the module doc)")
+    if not args.figaroh:
+        print(skip_message())
+        return
+    print(flush=True)      # before the child writes to the same stdout
+    # a subprocess: that script puts this tree first on sys.path, which would shadow a --baseline tree here
+    subprocess.run([sys.executable, os.path.join(HERE, "tiago_figaroh_calibration.py"), "--figaroh", "--figaroh-venv",
+                    str(args.figaroh_venv), "--repeats", str(REPEATS)], check=True)
 
 
 if __name__ == "__main__":
