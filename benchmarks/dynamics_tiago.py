@@ -121,7 +121,7 @@ def main(argv=None):
           f"decimation {res.processed.decimation}")
     print(f"OLS: {res.ols.selection.rank} base parameters, condition {res.ols.condition:.4g}; consistent: prior weight "
           f"{res.consistent.prior_weight:g} (grid scores " + ", ".join(f"{s:.3f}" for s in res.prior.scores)
-          + f"), ADMM {res.consistent.iterations} iterations, converged {res.consistent.converged}")
+          + f"), Clarabel {res.consistent.iterations} iterations, status {res.consistent.status}")
     print("\nheld-out torque RMSE (% of range)")
     print("| model | " + " | ".join(f"{j} ({u})" for j, u in zip(res.recorded, units)) + " |")
     print("|---" * (len(res.recorded) + 1) + "|")
@@ -136,8 +136,9 @@ def main(argv=None):
     for m in MODELS:
         print(f"| {m} | " + " | ".join(f"{f:.3f}" for f in res.wrench_rms[m]) + " |")
     wn = res.within_noise
-    print(f"\nconsistent vs OLS on the training window: residual increase "
-          f"{wn['residual_increase_in_noise_units']:.1f} noise units (chi-square 95 %: {wn['chi2_95']:.1f}); "
+    print(f"\nconsistent vs OLS on the training window: squared distance {wn['distance_in_noise_units']:.1f} "
+          f"in noise units (variance inflation of the filtered noise {wn['noise_inflation']:.3g}; chi-square 95 %: "
+          f"{wn['chi2_95']:.1f}); "
           "RMS ratio " + ", ".join(f"{r:.3f}" for r in wn["rms_ratio"]))
     print(f"\nidentification wall time (load, filter, OLS, prior-weight grid, consistent fit, validation): "
           f"best {min(times):.2f} s, median {np.median(times):.2f} s over {len(times)} run(s); "
