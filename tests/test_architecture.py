@@ -12,10 +12,12 @@ PACKAGE = Path(__file__).resolve().parents[1] / "robocal"
 MAX_TOP_LEVEL = 12
 MAX_LINES = 400
 # imported inside functions on purpose: optional extras ([viz], [fast], [fleet], [test]) and the pages
-# built on them, so a core install imports without them
+# built on them, so a core install imports without them; and heavy libraries of one CLI command
 OPTIONAL = ("numba", "meshcat", "matplotlib", "dask", "distributed", "pyarrow", "hypothesis",
             "robocal.viz.meshcat_check", "robocal.viz.report", "robocal.viz.plots", "robocal.viz.fleet_plots",
-            "robocal.estimation.fleet")
+            "robocal.estimation.fleet",
+            # the dynamics stack (scipy.signal, scipy.stats) only for `robocal identify`: CLI start-up
+            "robocal.dynamics.identify_report", "robocal.dynamics.identify_run")
 
 
 def modules() -> dict[str, Path]:

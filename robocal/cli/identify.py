@@ -1,15 +1,16 @@
 """`robocal identify dyn.yaml`: dynamic identification from a joint log (robocal.dynamics.identify_run)."""
 from __future__ import annotations
 
-
-from robocal.dynamics.identify_report import summary_text, write_identification
-from robocal.dynamics.identify_run import identify_from_config
 from robocal.errors import InputError
 
 
 def cmd_identify(args) -> int:
     """Identify, print the summary, write the folder (-o, else the config's `output`); nothing is written
     for bad input (the error propagates to cli.main, which prints it and exits 2)."""
+    # imported here: the dynamics stack (scipy.signal, scipy.stats) costs ~0.4 s of start-up that every
+    # other command would pay
+    from robocal.dynamics.identify_report import summary_text, write_identification
+    from robocal.dynamics.identify_run import identify_from_config
     res = identify_from_config(args.config)
     target = args.output if args.output is not None else res.config.output
     if target is None:
