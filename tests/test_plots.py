@@ -97,3 +97,13 @@ def test_blank_figure_fails_the_check(tmp_path):
     fig.savefig(tmp_path / "blank.png")
     with pytest.raises(AssertionError):
         _check_png(tmp_path / "blank.png")
+
+
+def test_joint_torques_several_models_and_units(tmp_path):
+    t = np.linspace(0, 1, 50)
+    tau = np.column_stack([np.sin(t), np.cos(t)])
+    out = plots.joint_torques(t, tau, {"ols": tau + 0.1, "consistent": tau - 0.1}, tmp_path / "two.png",
+                              ["torso", "arm_1"], ["N", "N m"])
+    _check_png(out)
+    with pytest.raises(InputError, match="consistent"):
+        plots.joint_torques(t, tau, {"ols": tau, "consistent": tau[:10]}, tmp_path / "bad.png")

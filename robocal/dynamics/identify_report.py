@@ -93,23 +93,12 @@ def summary_text(res: IdentifyResult) -> str:
 
 def torque_figure(res: IdentifyResult) -> bytes:
     """PNG: measured and predicted torques per recorded joint on the validation window."""
-    import matplotlib                       # optional dependency: imported only when a figure is asked for
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt         # optional dependency (see above)
-    n = len(res.recorded)
-    fig, axes = plt.subplots(n, 1, figsize=(9, 2.2 * n), sharex=True)
-    t = res.curves["t"]
-    for k, ax in enumerate(np.atleast_1d(axes)):
-        ax.plot(t, res.curves["measured"][:, k], "k-", lw=1.5, label="measured (filtered)")
-        for m, style in zip(MODELS, ("C3:", "C0--", "C2-")):
-            ax.plot(t, res.curves[m][:, k], style, lw=1, label=LABELS[m])
-        ax.set_ylabel(res.recorded[k].replace("_joint", ""))
-    np.atleast_1d(axes)[0].legend(loc="upper right", fontsize=7, ncol=4)
-    np.atleast_1d(axes)[-1].set_xlabel("time (s)")
-    fig.tight_layout()
+    from robocal.viz.plots import joint_torques   # optional dependency (matplotlib): only for a figure
+    units = result_dict(res)["torque_units"]
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=90)
-    plt.close(fig)
+    joint_torques(res.curves["t"], res.curves["measured"], {LABELS[m]: res.curves[m] for m in MODELS}, buf,
+                  [j.replace("_joint", "") for j in res.recorded], units,
+                  title="Held-out window: measured (low-pass filtered) vs predicted torque")
     return buf.getvalue()
 
 

@@ -150,28 +150,37 @@ def singular_values(s, rank: int, path, title: str = "Identification Jacobian (c
     return _save(fig, path)
 
 
-def joint_torques(time, measured, predicted, path, joint_names=None, unit: str = "N m",
+def joint_torques(time, measured, predicted, path, joint_names=None, unit="N m",
                   title: str = "Joint torques: measured vs predicted"):
-    """Measured and predicted torque of each joint over time: (n,) time, (n, nj) torques, one panel per joint."""
+    """Measured and predicted torque of each joint over time: (n,) time, (n, nj) torques, one panel per joint.
+    predicted: one (n, nj) array, or {label: (n, nj) array} for several models; unit: one for every joint or
+    a list (N for a prismatic joint)."""
     time = np.asarray(time, float).ravel()
-    measured, predicted = np.asarray(measured, float), np.asarray(predicted, float)
+    measured = np.asarray(measured, float)
+    models = predicted if isinstance(predicted, dict) else {"predicted": predicted}
+    models = {k: np.asarray(v, float) for k, v in models.items()}
     if measured.ndim == 1:
-        measured, predicted = measured[:, None], predicted.reshape(-1, 1)
-    if measured.shape != predicted.shape or len(time) != len(measured):
-        raise InputError(f"time {time.shape}, measured {measured.shape} and predicted {predicted.shape} disagree",
-                         field="measured/predicted")
+        measured, models = measured[:, None], {k: v.reshape(-1, 1) for k, v in models.items()}
+    for label, pred in models.items():
+        if measured.shape != pred.shape or len(time) != len(measured):
+            raise InputError(f"time {time.shape}, measured {measured.shape} and {label} {pred.shape} disagree",
+                             field="measured/predicted")
     nj = measured.shape[1]
     names = list(joint_names) if joint_names is not None else [f"joint {j + 1}" for j in range(nj)]
+    units = [unit] * nj if isinstance(unit, str) else list(unit)
     fig, ax = _figure(7.0, max(3.0, 1.5 * nj + 0.8), nrows=nj, ncols=1, sharex=True, squeeze=False)
+    styles = [(AFTER, "--"), (BEFORE, ":"), ("#2ca02c", "-."), ("#9467bd", "-")]
     for j in range(nj):
         a = ax[j, 0]
         a.plot(time, measured[:, j], color="#404040", lw=0.8, label="measured")
-        a.plot(time, predicted[:, j], color=AFTER, lw=0.8, ls="--", label="predicted")
-        rms = np.sqrt(np.mean((measured[:, j] - predicted[:, j]) ** 2))
-        a.set_ylabel(f"{names[j]}\n[{unit}]", fontsize=8)
-        a.set_title(f"rms error {rms:.3g} {unit}", fontsize=8, loc="right")
+        rms = []
+        for (label, pred), (color, ls) in zip(models.items(), styles):
+            a.plot(time, pred[:, j], color=color, lw=0.8, ls=ls, label=label)
+            rms.append(f"{label} {np.sqrt(np.mean((measured[:, j] - pred[:, j]) ** 2)):.3g}")
+        a.set_ylabel(f"{names[j]}\n[{units[j]}]", fontsize=8)
+        a.set_title(f"rms error {', '.join(rms)} {units[j]}", fontsize=8, loc="right")
         a.grid(True, alpha=0.3)
-    ax[0, 0].legend(fontsize=8, loc="upper left")
+    ax[0, 0].legend(fontsize=7, loc="best", ncol=len(models) + 1)
     ax[-1, 0].set_xlabel("time [s]")
     fig.suptitle(title)
     return _save(fig, path)
