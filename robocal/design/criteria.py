@@ -104,6 +104,8 @@ BOUND_SLACK = 1e-9
 CHUNK = 32
 #: weakest and strongest directions of M kept in the Rayleigh-Ritz bounds
 RITZ_DIRECTIONS = 6
+#: weakest directions of M whose block is solved exactly in the O5 pinching bound (half of a 30-column UR5 fit)
+O5_BLOCK = 15
 
 
 def _diagonal_bounds(criterion, lam, C):
@@ -132,10 +134,20 @@ def _bound_from_extremes(criterion, low, high):
 
 
 def _ritz_bounds(criterion, lam, C):
-    """Tighter upper bound (E, O2, O3, O4) for a few candidates, (K, d, L) C = B V: the r weakest and the r
-    strongest directions of M (Rayleigh-Ritz):
-      lambda_min(M') <= lambda_min(diag(lam_r) + C_r^T C_r),  lambda_max(M') >= lambda_max(same, strongest r).
+    """Tighter upper bound for a few candidates, (K, d, L) C = B V, from compressions of M' onto the r weakest
+    and r strongest directions of M:
+      E, O2, O3, O4 (Rayleigh-Ritz): lambda_min(M') <= lambda_min(diag(lam_r) + C_r^T C_r), and
+          lambda_max(M') >= lambda_max of the same on the strongest r;
+      O5: the eigenvalues of the block-diagonal part of M' (weakest O5_BLOCK directions, the rest) are majorized
+          by those of M' (pinching), and the rest's diagonal by its eigenvalues, as in `_diagonal_bounds`.
     """
+    if criterion == "O5":
+        r = min(len(lam), O5_BLOCK)
+        weak = C[:, :, :r]
+        inner = np.maximum(np.linalg.eigvalsh(np.diag(lam[:r]) + weak.transpose(0, 2, 1) @ weak), 0.0)
+        rest = lam[r:] + np.einsum("kdi,kdi->ki", C[:, :, r:], C[:, :, r:])
+        with np.errstate(divide="ignore"):
+            return 1.0 / (np.sum(1.0 / np.sqrt(inner), axis=1) + np.sum(1.0 / np.sqrt(rest), axis=1))
     r = min(len(lam), RITZ_DIRECTIONS)
     weak, strong = C[:, :, :r], C[:, :, -r:]
     low = np.linalg.eigvalsh(np.diag(lam[:r]) + weak.transpose(0, 2, 1) @ weak)[:, 0]
@@ -149,7 +161,7 @@ def best_addition(criterion: str, M: np.ndarray, m: int, B: np.ndarray, rows: np
 
     Ties go to the lowest k, as with argmax over `scores_after_adding`, of which this is a faster
     equivalent for the eigenvalue criteria: every candidate gets a cheap upper bound (`_diagonal_bounds`);
-    in order of decreasing bound, chunks get the tighter Ritz bound (E, O2, O3, O4) and the exact
+    in order of decreasing bound, chunks get the tighter `_ritz_bounds` and the exact
     eigenvalues only where the bound can still beat the best value found; the search stops at the first
     chunk whose bounds cannot. The exact values are those of `scores_after_adding`, so the choice is too.
     """
@@ -168,7 +180,7 @@ def best_addition(criterion: str, M: np.ndarray, m: int, B: np.ndarray, rows: np
         if ub[idx[0]] < best:
             break
         idx = idx[ub[idx] >= best]
-        if criterion != "O5":
+        if len(idx):
             idx = idx[_ritz_bounds(criterion, lam, C[idx]) * (1 + BOUND_SLACK) + 1e-300 >= best]
         if not len(idx):
             continue
