@@ -111,15 +111,23 @@ O5_BLOCK = 15
 def _diagonal_bounds(criterion, lam, C):
     """Cheap upper bound of the criterion of M' = M + B_k^T B_k for every k, from the diagonal of M' in
     M's eigenbasis, diag_i = lam_i + |C e_i|^2 (C = B V), O(K d L):
-      lambda_min(M') <= min_i diag_i and lambda_max(M') >= max_i diag_i   (Rayleigh quotients);
+      lambda_min(M') <= min_i diag_i and lambda_max(M') >= max_i diag_i   (Rayleigh quotients), tightened by the
+          2 x 2 compressions of M' on the two weakest and the two strongest directions (Rayleigh-Ritz);
       O5: the diagonal of a symmetric matrix is majorized by its eigenvalues (Schur), so for the convex
           f(x) = x^-1/2, sum_i f(diag_i) <= sum_i f(lambda_i(M')) = 1 / O5(M').
     """
     diag = lam + np.einsum("kdi,kdi->ki", C, C)
-    low, high = diag.min(axis=1), diag.max(axis=1)
     if criterion == "O5":
         with np.errstate(divide="ignore"):
             return 1.0 / np.sum(1.0 / np.sqrt(np.maximum(diag, 0.0)), axis=1)
+    low, high = diag.min(axis=1), diag.max(axis=1)
+    if len(lam) >= 2:
+        # the 2 x 2 compressions on the two weakest and the two strongest directions, in closed form
+        for i, j, sign in ((0, 1, -1.0), (-2, -1, 1.0)):
+            mean, half = 0.5 * (diag[:, i] + diag[:, j]), 0.5 * (diag[:, i] - diag[:, j])
+            off = np.einsum("kd,kd->k", C[:, :, i], C[:, :, j])
+            extreme = mean + sign * np.sqrt(half * half + off * off)
+            low, high = (np.minimum(low, extreme), high) if sign < 0 else (low, np.maximum(high, extreme))
     return _bound_from_extremes(criterion, low, high)
 
 
