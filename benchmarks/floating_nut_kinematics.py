@@ -8,10 +8,7 @@ lengths, with the largest pose difference between the two. Rows marked (numba) u
 single-pose FK (pip install robocal[fast]); the other rows force numpy.
 """
 import argparse
-import importlib.util
 import os
-import subprocess
-import tempfile
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
@@ -19,24 +16,11 @@ import time  # noqa: E402
 
 import numpy as np  # noqa: E402
 
+from git_baseline import module_at_commit  # noqa: E402
 from robocal.systems.floating_nut.geometry import reference_fixture  # noqa: E402
 from robocal.systems.floating_nut.kinematics import FloatingNutKinematics  # noqa: E402
 
 DEG = np.pi / 180
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-
-
-def module_at_commit(commit, path, name):
-    """The module `path` (relative to the repository) as it was at `commit`, imported from a temporary file."""
-    source = subprocess.run(["git", "-C", ROOT, "show", f"{commit}:{path}"], check=True, capture_output=True,
-                            text=True).stdout
-    with tempfile.NamedTemporaryFile("w", suffix=".py", delete=False) as f:
-        f.write(source)
-    spec = importlib.util.spec_from_file_location(name, f.name)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    os.unlink(f.name)
-    return module
 
 
 def baseline_kinematics(commit):

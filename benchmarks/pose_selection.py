@@ -12,16 +12,14 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import importlib.util
 import os
-import subprocess
-import tempfile
 import time
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 
+from git_baseline import module_at_commit  # noqa: E402
 from robocal import load_example  # noqa: E402
 from robocal.estimation.calibrate import calibrate  # noqa: E402
 from robocal.design import selection  # noqa: E402
@@ -36,20 +34,6 @@ from robocal.residuals import PoseResidual  # noqa: E402
 from robocal.design.simulate import perturb, simulate_measurements  # noqa: E402
 
 SIGMA = (5e-5, 5e-5)
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-
-
-def module_at_commit(commit, path, name):
-    """The module `path` (relative to the repository) as it was at `commit`, imported from a temporary file."""
-    source = subprocess.run(["git", "-C", ROOT, "show", f"{commit}:{path}"], check=True, capture_output=True,
-                            text=True).stdout
-    with tempfile.NamedTemporaryFile("w", suffix=".py", delete=False) as f:
-        f.write(source)
-    spec = importlib.util.spec_from_file_location(name, f.name)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    os.unlink(f.name)
-    return module
 
 
 @contextlib.contextmanager
