@@ -3,8 +3,8 @@
 The command lengths near p0 are l(p0 + d) = l0 + J0 d + 1/2 H0[d, d] + O(|d|^3) (J0, H0: first and second
 derivatives of the compensated IK, or of the plain lengths, at p0). Inverting that series to second order,
     d1 = J0^-1 e,   d = d1 - 1/2 J0^-1 H0[d1, d1],   e = L - l0,
-leaves a residual of third order: about 10x smaller than Newton's first step J0^-1 e over the benchmark box
-(+-0.1 m, +-10 deg), one Newton iteration fewer (benchmarks/floating_nut_kinematics.py). H0 is the central
+leaves a residual of third order: over 200 poses of the benchmark box (+-0.1 m, +-10 deg) a median of 7e-4 m
+after the step instead of 9e-3 m after J0^-1 e, and 3.2 Newton iterations instead of 4 (docs/speed.md). H0 is the central
 difference of the analytic Jacobians at p0 +- h e_k, computed once per geometry; a start only has to be close,
 the Newton iterations that follow make the pose exact. See docs/floating_nut_hexapod.md.
 """
