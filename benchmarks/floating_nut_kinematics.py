@@ -147,7 +147,7 @@ def main():
         kin_numba._single_pose_solver()
     except ImportError:
         kin_numba = None                        # numba not installed: no numba rows
-    print("floating-nut hexapod kinematics, seed-002 fixture, box +-0.1 m / +-10 deg, one core")
+    print("floating-nut hexapod kinematics, reference fixture (docs/floating_nut_hexapod.md), box +-0.1 m / +-10 deg, one core")
     print(f"{'operation':46s} {'per second':>14s} {'us each':>10s}  note")
     for name, rate, us, note in speed_rows(kin, kin_numba):
         print(f"{name:46s} {rate:14,.0f} {us:10.2f}  {note}")
