@@ -6,7 +6,7 @@ derivatives of the compensated IK, or of the plain lengths, at p0). Inverting th
 leaves a residual of third order: over 200 poses of the benchmark box (+-0.1 m, +-10 deg) a median of 7e-4 m
 after the step instead of 9e-3 m after J0^-1 e, and 3.2 Newton iterations instead of 4 (docs/speed.md). H0 is the central
 difference of the analytic Jacobians at p0 +- h e_k, computed once per geometry; a start only has to be close,
-the Newton iterations that follow make the pose exact. See docs/floating_nut_hexapod.md.
+the Newton iterations that follow make the pose exact. See docs/floating_nut_hexapod.md and docs/speed.md.
 """
 from __future__ import annotations
 
