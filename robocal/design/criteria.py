@@ -101,7 +101,7 @@ def scores_after_adding(criterion: str, M: np.ndarray, m: int, B: np.ndarray, ro
 #: bounds are inflated by this relative amount so that rounding never prunes the true best candidate
 BOUND_SLACK = 1e-9
 #: candidates whose exact eigenvalues are computed together (one batched eigvalsh)
-CHUNK = 32
+CHUNK = 16
 #: weakest and strongest directions of M kept in the Rayleigh-Ritz bounds
 RITZ_DIRECTIONS = 6
 #: weakest directions of M whose block is solved exactly in the O5 pinching bound (half of a 30-column UR5 fit)
