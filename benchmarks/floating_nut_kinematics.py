@@ -1,10 +1,13 @@
-"""Speed and accuracy of the floating-nut hexapod kinematics (one core). Prints two tables.
+"""Speed and accuracy of the floating-nut hexapod kinematics (one core). Prints three tables.
 
-Run: OMP_NUM_THREADS=1 python benchmarks/floating_nut_kinematics.py
+Run: OMP_NUM_THREADS=1 python benchmarks/floating_nut_kinematics.py [--baseline-commit 215e72e]
 Targets (issue 5): compensated IK > 200,000 poses/s in batch; FK < 50 us per solve.
-Rows marked (numba) use the optional compiled single-pose FK (pip install robocal[fast]); the other
-rows force numpy.
+The first table times the numpy FK of --baseline-commit (its fk.py and kinematics.py read with `git show` into
+temporary modules; the commit must be in this repository's history) against the current numpy FK on the same
+lengths, with the largest pose difference between the two. Rows marked (numba) use the optional compiled
+single-pose FK (pip install robocal[fast]); the other rows force numpy.
 """
+import argparse
 import os
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
@@ -13,10 +16,43 @@ import time  # noqa: E402
 
 import numpy as np  # noqa: E402
 
+from git_baseline import module_at_commit  # noqa: E402
 from robocal.systems.floating_nut.geometry import reference_fixture  # noqa: E402
 from robocal.systems.floating_nut.kinematics import FloatingNutKinematics  # noqa: E402
 
 DEG = np.pi / 180
+
+
+def baseline_kinematics(commit):
+    """FloatingNutKinematics of `commit` with its own numpy single-pose solver (numba off)."""
+    old_fk = module_at_commit(commit, "robocal/systems/floating_nut/fk.py", "baseline_fk")
+    old = module_at_commit(commit, "robocal/systems/floating_nut/kinematics.py", "baseline_kinematics")
+    kin = old.FloatingNutKinematics(reference_fixture(), use_numba=False)
+    kin._single = old_fk.SinglePoseFK(kin)     # not the current solver its import of fk_compiled would give
+    return kin
+
+
+def comparison_rows(old, new):
+    """(operation, baseline us, current us, max |pose difference|) for the numpy FK paths."""
+    rows = []
+    P = poses(new, 200)
+    lc = new.ik(P)
+    cases = [("FK single call, cold (full J)", lambda k: [k.fk(l) for l in lc], 200),
+             ("FK single call, cold (uncompensated J)", lambda k: [k.fk(l, jacobian="uncompensated") for l in lc], 200),
+             ("FK single call, warm (1e-4 step)",
+              lambda k: [k.fk(l, p_init=p + 1e-4, warn_condition=None) for l, p in zip(lc, P)], 200)]
+    for n in (1_000, 10_000):
+        Pn = poses(new, n)
+        ln = new.ik(Pn)
+        cases.append((f"FK batch {n}, cold (full J)", lambda k, ln=ln: [k.fk(ln)], n))
+        cases.append((f"FK batch {n}, warm (1e-4 step)", lambda k, ln=ln, Pn=Pn: [k.fk(ln, p_init=Pn + 1e-4)], n))
+    for name, run, n in cases:
+        t_old = best_time(lambda: run(old), repeat=5)
+        t_new = best_time(lambda: run(new), repeat=5)
+        a = np.array([r.pose for r in run(old)]).reshape(-1, 6)
+        b = np.array([r.pose for r in run(new)]).reshape(-1, 6)
+        rows.append((name, t_old / n * 1e6, t_new / n * 1e6, np.abs(a - b).max()))
+    return rows
 
 
 def poses(kin, n, seed=0):
@@ -95,13 +131,23 @@ def accuracy_rows(kin):
 
 
 def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--baseline-commit", default="215e72e",
+                    help="commit whose numpy FK is timed as the baseline ('' to skip)")
+    a = ap.parse_args()
     kin = FloatingNutKinematics(reference_fixture(), use_numba=False)   # numpy rows
+    if a.baseline_commit:
+        print(f"numpy FK, baseline ({a.baseline_commit}) against current, us per pose, best of 5, one core")
+        print(f"{'operation':40s} {'baseline':>9s} {'current':>9s} {'speed-up':>9s}  max |pose difference|")
+        for name, t_old, t_new, diff in comparison_rows(baseline_kinematics(a.baseline_commit), kin):
+            print(f"{name:40s} {t_old:9.2f} {t_new:9.2f} {t_old / t_new:9.2f}  {diff:.1e}")
+        print()
     try:
         kin_numba = FloatingNutKinematics(reference_fixture(), use_numba=True)
         kin_numba._single_pose_solver()
     except ImportError:
         kin_numba = None                        # numba not installed: no numba rows
-    print("floating-nut hexapod kinematics, seed-002 fixture, box +-0.1 m / +-10 deg, one core")
+    print("floating-nut hexapod kinematics, reference fixture (docs/floating_nut_hexapod.md), box +-0.1 m / +-10 deg, one core")
     print(f"{'operation':46s} {'per second':>14s} {'us each':>10s}  note")
     for name, rate, us, note in speed_rows(kin, kin_numba):
         print(f"{name:46s} {rate:14,.0f} {us:10.2f}  {note}")

@@ -2,11 +2,16 @@
 against random pose sets, and prediction against Monte-Carlo synthetic-truth calibrations.
 
 Run:  OMP_NUM_THREADS=1 python benchmarks/pose_selection.py [--candidates 1000] [--poses 30] [--trials 100]
-Times are wall clock, one thread, one run (greedy start + exchange).
+          [--baseline-commit 215e72e]
+Times are wall clock, one thread, one run (greedy start + exchange). The first table times the baseline
+(robocal/design/criteria.py as of --baseline-commit, read with `git show` into a temporary module, so the
+commit must be in this repository's history) against the current code on the same design, and checks that
+both choose the same poses.
 """
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import time
 
@@ -14,8 +19,10 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 
+from git_baseline import module_at_commit  # noqa: E402
 from robocal import load_example  # noqa: E402
 from robocal.estimation.calibrate import calibrate  # noqa: E402
+from robocal.design import selection  # noqa: E402
 from robocal.design.selection import DesignMatrix, select_poses  # noqa: E402
 from robocal.design.candidates import random_candidates  # noqa: E402
 from robocal.design.criteria import CRITERIA  # noqa: E402
@@ -27,6 +34,33 @@ from robocal.residuals import PoseResidual  # noqa: E402
 from robocal.design.simulate import perturb, simulate_measurements  # noqa: E402
 
 SIGMA = (5e-5, 5e-5)
+
+
+@contextlib.contextmanager
+def criteria_module(module):
+    """select_poses with `module` in place of robocal.design.criteria (selection.py calls it as `dc`)."""
+    current = selection.dc
+    selection.dc = module
+    try:
+        yield
+    finally:
+        selection.dc = current
+
+
+def speed_table(design, n, W, baseline):
+    """Baseline against current select_poses per criterion: times and whether the same poses are chosen."""
+    print(f"\nselect_poses, {n} poses of {design.n_candidates} (greedy + exchange), one thread")
+    print("criterion  baseline [s]  current [s]  speed-up  same poses  |value difference|")
+    for c in CRITERIA:
+        with criteria_module(baseline):
+            t0 = time.perf_counter()
+            old = select_poses(design, n, c, W=W)
+            t_old = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        new = select_poses(design, n, c, W=W)
+        t_new = time.perf_counter() - t0
+        same = "yes" if np.array_equal(old.chosen, new.chosen) else "NO"
+        print(f"{c:>9}  {t_old:12.2f}  {t_new:11.2f}  {t_old / t_new:8.1f}  {same:>10}  {abs(old.value - new.value):18.1e}")
 
 
 def ur5_problem(values):
@@ -43,6 +77,8 @@ def main():
     ap.add_argument("--candidates", type=int, default=1000)
     ap.add_argument("--poses", type=int, default=30)
     ap.add_argument("--trials", type=int, default=100)
+    ap.add_argument("--baseline-commit", default="215e72e",
+                    help="commit whose robocal/design/criteria.py is timed as the baseline ('' to skip)")
     a = ap.parse_args()
     robot = load_example("ur5")
     rng = np.random.default_rng(0)
@@ -55,6 +91,9 @@ def main():
     validation = random_candidates(robot, robot.joint_names, 300, rng)
     G = pose_jacobians(problem, "tool0", validation)
     W = position_weight(G)
+    if a.baseline_commit:
+        baseline = module_at_commit(a.baseline_commit, "robocal/design/criteria.py", "baseline_criteria")
+        speed_table(design, a.poses, W, baseline)
 
     print(f"\n{a.poses} poses of {a.candidates}: predicted tool0 accuracy over 300 configurations (1 sigma)")
     print("criterion   time [s]  exchanges  mean pos [mm]  max pos [mm]  mean rot [mrad]  log det")

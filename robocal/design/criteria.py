@@ -16,8 +16,9 @@ sigma_1 >= ... >= sigma_L of J (sigma_i^2 = eigenvalues of M):
 
 D, A, I and O1 (a function of det M and m) are evaluated for many candidate changes at once with block
 (Woodbury) updates of M^-1. The other singular-value criteria need the eigenvalues of each changed matrix;
-`best_addition` avoids most of them with cheap upper bounds (Rayleigh quotients and Weyl's inequality
-for the PSD update M + B^T B) and computes eigenvalues only for candidates whose bound can still win.
+`best_addition` avoids most of them with upper bounds (Rayleigh quotients, Rayleigh-Ritz, and Schur's
+majorization of the diagonal by the eigenvalues for O5) and computes eigenvalues only for candidates whose
+bound can still win.
 """
 from __future__ import annotations
 
@@ -98,40 +99,68 @@ def scores_after_adding(criterion: str, M: np.ndarray, m: int, B: np.ndarray, ro
 
 
 #: bounds are inflated by this relative amount so that rounding never prunes the true best candidate
-_BOUND_SLACK = 1e-9
-_CHUNK = 32
+BOUND_SLACK = 1e-9
+#: candidates whose exact eigenvalues are computed together (one batched eigvalsh)
+CHUNK = 16
+#: weakest and strongest directions of M kept in the Rayleigh-Ritz bounds
+RITZ_DIRECTIONS = 6
+#: weakest directions of M whose block is solved exactly in the O5 pinching bound (half of a 30-column UR5 fit)
+O5_BLOCK = 15
 
 
-def _upper_bounds(criterion, M, B):
-    """Upper bound of the criterion of M' = M + B_k^T B_k for every k (spectral criteria except O1).
-
-    In M's eigenbasis (M = V diag(lam) V^T, C = B V), for a rank-d PSD update:
-      lambda_min(M') <= lambda_min(diag(lam_r) + C_r^T C_r) over the r weakest directions (Rayleigh-Ritz),
-      lambda_max(M') >= lambda_max(diag(lam_r) + C_r^T C_r) over the r strongest directions,
-      lambda_i(M') <= min(lambda_{i+d}(M), lambda_i(M) + |B|_F^2)   (interlacing, Weyl).
+def _diagonal_bounds(criterion, lam, C):
+    """Cheap upper bound of the criterion of M' = M + B_k^T B_k for every k, from the diagonal of M' in
+    M's eigenbasis, diag_i = lam_i + |C e_i|^2 (C = B V), O(K d L):
+      lambda_min(M') <= min_i diag_i and lambda_max(M') >= max_i diag_i   (Rayleigh quotients), tightened by the
+          2 x 2 compressions of M' on the two weakest and the two strongest directions (Rayleigh-Ritz);
+      O5: the diagonal of a symmetric matrix is majorized by its eigenvalues (Schur), so for the convex
+          f(x) = x^-1/2, sum_i f(diag_i) <= sum_i f(lambda_i(M')) = 1 / O5(M').
     """
-    lam, V = np.linalg.eigh(M)
-    lam = np.maximum(lam, 0.0)
-    L, d = len(lam), B.shape[1]
-    r = min(L, 6)
-    C = B @ V                                                       # (K, d, L)
-    weak = np.linalg.eigvalsh(np.diag(lam[:r]) + np.einsum("kdi,kdj->kij", C[:, :, :r], C[:, :, :r]))[:, 0]
-    strong = np.linalg.eigvalsh(np.diag(lam[-r:]) + np.einsum("kdi,kdj->kij", C[:, :, -r:], C[:, :, -r:]))[:, -1]
+    diag = lam + np.einsum("kdi,kdi->ki", C, C)
+    if criterion == "O5":
+        with np.errstate(divide="ignore"):
+            return 1.0 / np.sum(1.0 / np.sqrt(np.maximum(diag, 0.0)), axis=1)
+    low, high = diag.min(axis=1), diag.max(axis=1)
+    if len(lam) >= 2:
+        # the 2 x 2 compressions on the two weakest and the two strongest directions, in closed form
+        for i, j, sign in ((0, 1, -1.0), (-2, -1, 1.0)):
+            mean, half = 0.5 * (diag[:, i] + diag[:, j]), 0.5 * (diag[:, i] - diag[:, j])
+            off = np.einsum("kd,kd->k", C[:, :, i], C[:, :, j])
+            extreme = mean + sign * np.sqrt(half * half + off * off)
+            low, high = (np.minimum(low, extreme), high) if sign < 0 else (low, np.maximum(high, extreme))
+    return _bound_from_extremes(criterion, low, high)
+
+
+def _bound_from_extremes(criterion, low, high):
+    """Upper bound of E, O2, O3 or O4 from low >= lambda_min(M') and high <= lambda_max(M')."""
+    low = np.maximum(low, 0.0)
     if criterion in ("E", "O3"):
-        ub = np.sqrt(weak)
-    elif criterion == "O2":
-        ub = np.sqrt(weak / strong)
-    elif criterion == "O4":
-        ub = weak / np.sqrt(strong)
-    elif criterion == "O5":
-        b2 = np.sum(B ** 2, axis=(1, 2))
-        shifted = np.concatenate([lam[d:], np.full(min(d, L), np.inf)])
-        top = np.minimum(shifted[None, :], lam[None, :] + b2[:, None])
-        top[:, 0] = np.minimum(top[:, 0], weak)
-        ub = 1.0 / np.sum(1.0 / np.sqrt(top), axis=1)
-    else:
-        raise ValueError(f"no bound for criterion '{criterion}'")
-    return ub * (1 + _BOUND_SLACK) + 1e-300
+        return np.sqrt(low)
+    if criterion == "O2":
+        return np.sqrt(low / high)
+    return low / np.sqrt(high)                      # O4
+
+
+def _ritz_bounds(criterion, lam, C):
+    """Tighter upper bound for a few candidates, (K, d, L) C = B V, from compressions of M' onto the r weakest
+    and r strongest directions of M:
+      E, O2, O3, O4 (Rayleigh-Ritz): lambda_min(M') <= lambda_min(diag(lam_r) + C_r^T C_r), and
+          lambda_max(M') >= lambda_max of the same on the strongest r;
+      O5: the eigenvalues of the block-diagonal part of M' (weakest O5_BLOCK directions, the rest) are majorized
+          by those of M' (pinching), and the rest's diagonal by its eigenvalues, as in `_diagonal_bounds`.
+    """
+    if criterion == "O5":
+        r = min(len(lam), O5_BLOCK)
+        weak = C[:, :, :r]
+        inner = np.maximum(np.linalg.eigvalsh(np.diag(lam[:r]) + weak.transpose(0, 2, 1) @ weak), 0.0)
+        rest = lam[r:] + np.einsum("kdi,kdi->ki", C[:, :, r:], C[:, :, r:])
+        with np.errstate(divide="ignore"):
+            return 1.0 / (np.sum(1.0 / np.sqrt(inner), axis=1) + np.sum(1.0 / np.sqrt(rest), axis=1))
+    r = min(len(lam), RITZ_DIRECTIONS)
+    weak, strong = C[:, :, :r], C[:, :, -r:]
+    low = np.linalg.eigvalsh(np.diag(lam[:r]) + weak.transpose(0, 2, 1) @ weak)[:, 0]
+    high = np.linalg.eigvalsh(np.diag(lam[-r:]) + strong.transpose(0, 2, 1) @ strong)[:, -1]
+    return _bound_from_extremes(criterion, low, high)
 
 
 def best_addition(criterion: str, M: np.ndarray, m: int, B: np.ndarray, rows: np.ndarray,
@@ -139,20 +168,30 @@ def best_addition(criterion: str, M: np.ndarray, m: int, B: np.ndarray, rows: np
     """(k, value) of the candidate block that maximises the criterion of M + B_k^T B_k.
 
     Ties go to the lowest k, as with argmax over `scores_after_adding`, of which this is a faster
-    equivalent: candidates are evaluated in order of decreasing upper bound until no bound can beat
-    the best value found.
+    equivalent for the eigenvalue criteria: every candidate gets a cheap upper bound (`_diagonal_bounds`);
+    in order of decreasing bound, chunks get the tighter `_ritz_bounds` and the exact
+    eigenvalues only where the bound can still beat the best value found; the search stops at the first
+    chunk whose bounds cannot. The exact values are those of `scores_after_adding`, so the choice is too.
     """
     if criterion not in ("E", "O2", "O3", "O4", "O5"):
         s = scores_after_adding(criterion, M, m, B, rows, W)
         k = int(np.argmax(s))
         return k, float(s[k])
-    ub = _upper_bounds(criterion, M, B)
+    lam, V = np.linalg.eigh(M)
+    lam = np.maximum(lam, 0.0)
+    C = B @ V                                                       # (K, d, L): blocks in M's eigenbasis
+    ub = _diagonal_bounds(criterion, lam, C) * (1 + BOUND_SLACK) + 1e-300
     order = np.argsort(-ub, kind="stable")
     best_k, best = -1, -np.inf
-    for start in range(0, len(order), _CHUNK):
-        idx = order[start:start + _CHUNK]
+    for start in range(0, len(order), CHUNK):
+        idx = order[start:start + CHUNK]
         if ub[idx[0]] < best:
             break
+        idx = idx[ub[idx] >= best]
+        if len(idx):
+            idx = idx[_ritz_bounds(criterion, lam, C[idx]) * (1 + BOUND_SLACK) + 1e-300 >= best]
+        if not len(idx):
+            continue
         s = scores_after_adding(criterion, M, m, B[idx], rows[idx], W)
         for k, v in zip(idx, s):
             if v > best or (v == best and k < best_k):

@@ -11,7 +11,9 @@ p = [x y z alpha beta gamma] on the compensated lengths with the analytic J_c, s
 * with them (Binet-Cauchy, and (n_b x n_m) = -((a x u).c) u): n_b.n_m = ac uu - au cu and
   (n_b x n_m).s = l acu, l = sqrt(uu), so phi = atan2(l acu, ac uu - au cu) and
   J_c = sum_k (dl_c/dq_k) dq_k/dm dm/dp with scalar weights per leg;
-* the first step from the home pose is precomputed (J(p0)^-1), R and dR/d(angles) are plain floats.
+* a cold solve starts with the second-order home step (home_step.py); R and dR/d(angles) are plain floats;
+* the five weights of each leg come from one product with a constant (60, 30) map, and J = G dm/dp with
+  G (6, 13) the weighted rows of Q m.
 """
 from __future__ import annotations
 
@@ -82,21 +84,21 @@ def _weight_maps():
     hy = gain y / r2, hxl = gain x / (r2 l), r2 = x^2 + y^2:
         w_ac = -2 hy uu,  w_au = 2 hy cu,  w_cu = 2 hy au,  w_acu = 2 hxl uu,
         w_uu = 1 / l + hxl acu - 2 hy ac.
-    As 7 blocks of products h_i v_i, h = (hy, hy, hy, hy, hxl, hxl, 1/l), v = C q + c1, summed into
-    w (5 x 6) by `sum_blocks`; `scatter` places w[k, j] at row j, column 6 k + j of a (6, 30) matrix.
+    So w (5, 6) = hy * (P q) + hxl * (X q), plus 1 / l on the uu row: returns [P; X] (60, 30), one product.
     """
-    blocks = [(-2.0, UU, AC), (2.0, CU, AU), (-2.0, AC, UU), (2.0, AU, CU), (2.0, UU, ACU), (1.0, ACU, UU),
-              (0.0, None, UU)]                   # (coefficient, quantity in v, weight it adds to)
-    C, c1, sum_blocks = np.zeros((42, 30)), np.zeros(42), np.zeros((30, 42))
-    for i, (coef, src, dst) in enumerate(blocks):
-        for j in range(6):
-            if src is None:
-                c1[6 * i + j] = 1.0
-            else:
-                C[6 * i + j, 6 * src + j] = coef
-            sum_blocks[6 * dst + j, 6 * i + j] = 1.0
-    scatter = np.array([30 * (r % 6) + r for r in range(30)])
-    return C, c1, sum_blocks, scatter
+    hy_terms = ((AC, UU, -2.0), (AU, CU, 2.0), (CU, AU, 2.0), (UU, AC, -2.0))   # (weight, quantity, coefficient)
+    hxl_terms = ((ACU, UU, 2.0), (UU, ACU, 1.0))
+    maps = np.zeros((2, 30, 30))
+    for block, terms in enumerate((hy_terms, hxl_terms)):
+        for dst, src, coef in terms:
+            for j in range(6):
+                maps[block, 6 * dst + j, 6 * src + j] = coef
+    return maps.reshape(60, 30)
+
+
+def _angle_slots():
+    """Flat indices in dm/dp (13, 6) of dR/dalpha, dR/dbeta, dR/dgamma (9 rows each, columns 3-5)."""
+    return np.array([6 * r + 3 + k for k in range(3) for r in range(9)])
 
 
 class SinglePoseFK:
@@ -108,8 +110,13 @@ class SinglePoseFK:
         self.rotation = ROTATIONS[g.euler]
         self.forms = _quadratic_forms(g.b, g.m, kin._a, kin._c)
         self.gain, self.phi0, self.l0, self.p0 = kin._gain, kin._phi0, kin._l0, g.p0.tolist()
-        self.C, self.c1, self.sum_blocks, self.scatter = _weight_maps()
-        # first Newton step from p0 and the LU of its matrix (a chord step may use it)
+        self.weights = _weight_maps()
+        self.ones5 = np.ones(5)
+        self.dm_home = np.zeros((13, 6))              # dm/dp: translation rows 9-11 are unit, angles per pose
+        self.dm_home[9:12, :3] = np.eye(3)
+        self.angle_slots = _angle_slots()
+        self.start = kin.home_step()
+        # Newton matrices at p0 and their LU (the home step converges at once near p0: a chord step uses them)
         self.home = {}
         for full in (True, False):
             J0 = kin.jacobian(g.p0) if full else kin.length_and_roll_jacobians(g.p0)[0]
@@ -117,46 +124,45 @@ class SinglePoseFK:
             self.home[full] = None if info else (J0, lu, piv, inv)
 
     def _evaluate(self, p, L, compensate):
-        """m-lift at pose p: Q m (30, 13), q (5, 6), l, x, y, dR/d(angles) (27 floats), residual e."""
+        """m-lift at pose p: Q m (30, 13), q (30,), l, x, y, dR/d(angles) (27 floats), residual e."""
         R, dRa, dRb, dRg = self.rotation(p[3], p[4], p[5])
-        m, dR = np.array(R + tuple(p[:3]) + (1.0,)), dRa + dRb + dRg
+        m = np.array(R + (p[0], p[1], p[2], 1.0))
         Qm = m.dot(self.forms).reshape(30, 13)
-        q = Qm.dot(m).reshape(5, 6)
-        l = np.sqrt(q[UU])
+        q = Qm.dot(m)
+        l = np.sqrt(q[12:18])                                  # UU
         if not compensate:
-            return Qm, q, l, None, None, dR, L - l
-        prod = q[AC:AU + 1] * q[UU:CU + 1]
-        x, y = prod[0] - prod[1], l * q[ACU]
+            return Qm, q, l, None, None, dRa + dRb + dRg, L - l
+        x, y = q[:6] * q[12:18] - q[6:12] * q[18:24], l * q[24:]   # ac uu - au cu, l acu
         theta = np.arctan2(y, x) - self.phi0                # theta = wrap(phi - phi0), eq. (2')
         th = theta.tolist()
         if max(th) > math.pi or min(th) <= -math.pi:
             theta = wrap_angle(theta)
-        return Qm, q, l, x, y, dR, (L - l) - self.gain * theta
+        return Qm, q, l, x, y, dRa + dRb + dRg, (L - l) - self.gain * theta
 
-    def _jacobian(self, Qm, q, l, x, y, dR, full):
-        """J_c (full) or J_l = dl/dp at the evaluated pose, (6, 6): dq = 2 (Q m) dm and, from
-        l = sqrt(uu), phi = atan2(y, x), x = ac uu - au cu, y = l acu, the weights of `_weight_maps`."""
+    def _jacobian(self, Qm, q, l, x, y, dR, full, dm=None):
+        """J_c (full) or J_l = dl/dp at the evaluated pose, (6, 6): J = G dm/dp with G (6, 13) the
+        per-leg weights of `_weight_maps` on the rows of Q m (dq = 2 (Q m) dm); dm: a dm/dp buffer to fill
+        (one per solve), or None for a new one."""
         il = 1.0 / l
         if full:
             k = self.gain / (x * x + y * y)
-            hy, hxl = k * y, (k * x) * il
-            h = np.concatenate((hy, hy, hy, hy, hxl, hxl, il))
-            w = self.sum_blocks.dot(h * (self.C.dot(q.ravel()) + self.c1))
+            w = self.weights.dot(q).reshape(2, 5, 6)
+            w = w[0] * (k * y) + w[1] * ((k * x) * il)
+            w[UU] += il
+            G = self.ones5.dot((w.reshape(30, 1) * Qm).reshape(5, 78)).reshape(6, 13)
         else:
-            w = np.zeros(30)
-            w[6 * UU:6 * UU + 6] = il
-        block = np.zeros(180)
-        block[self.scatter] = w                        # (6, 30): row j holds leg j's five weights
-        G = block.reshape(6, 30).dot(Qm)               # (6, 13): J = G dm/dp, dm/dt = unit rows 9-11
-        return np.concatenate((G[:, 9:12], G[:, :9].dot(np.array(dR).reshape(3, 9).T)), axis=1)
+            G = il[:, None] * Qm[12:18]                        # dl = d(uu) / (2 l)
+        dm = self.dm_home.copy() if dm is None else dm
+        dm.put(self.angle_slots, dR)
+        return G.dot(dm)
 
     def _check_singular(self, p, q, x=None, y=None):
         """Raise SingularHookeError as the batch path does: (x^2 + y^2) / uu^2 = sin_b^2 sin_m^2 (the
         squared sines of the axis-strut angles, each <= 1), so a ratio >= SINGULAR_TOL^2 clears both."""
+        uu = q[12:18]
         if x is None:
-            prod = q[AC:AU + 1] * q[UU:CU + 1]
-            x, y = prod[0] - prod[1], np.sqrt(q[UU]) * q[ACU]
-        if not min(((x * x + y * y) / (q[UU] * q[UU])).tolist()) >= SINGULAR_TOL ** 2:
+            x, y = q[:6] * uu - q[6:12] * q[18:24], np.sqrt(uu) * q[24:]
+        if not min(((x * x + y * y) / (uu * uu)).tolist()) >= SINGULAR_TOL ** 2:
             self.kin._terms(np.array([p]), what="FK iterate of sample")   # raises, naming side and leg
 
     def solve(self, L, p_init, compensate, jacobian, tol, max_iter, warn_condition) -> FKResult:
@@ -165,11 +171,13 @@ class SinglePoseFK:
         The Hooke-singularity test runs on the solution and before any failure is reported.
         """
         full = compensate and jacobian == "full"
-        home = self.home[full] if p_init is None else None
+        home = self.home[full] if p_init is None and self.start.ready(compensate) else None
         p = list(self.p0 if p_init is None else p_init)
         history, iterations, J, lu, piv, k = [], 0, None, None, None, 0
+        dm = self.dm_home.copy()
         if home is not None:
-            # cold start: the residual at p0 is L - l(p0) (theta(p0) = 0) and J(p0) is known
+            # cold start: the residual at p0 is L - l(p0) (theta(p0) = 0); the second-order home step
+            # (home_step.py) counts as the first iteration
             e = L - self.l0
             res = max(map(abs, e.tolist()))
             history.append(res)
@@ -177,8 +185,8 @@ class SinglePoseFK:
                 return FKResult(np.array(p), 0, res, history)
             if max_iter == 0:
                 raise _not_converged(max_iter, res, tol)
-            J, lu, piv, inv = home
-            p = [a + d for a, d in zip(p, inv.dot(e).tolist())]
+            J, lu, piv, _ = home          # a chord step may use J(p0) if the home step already converges
+            p = [a + d for a, d in zip(p, self.start.step(e, compensate).tolist())]
             iterations = k = 1
         while True:
             Qm, q, l, x, y, dR, e = self._evaluate(p, L, compensate)
@@ -193,7 +201,7 @@ class SinglePoseFK:
             if k == max_iter:
                 self._check_singular(p, q, x, y)
                 raise _not_converged(max_iter, res, tol)
-            J = self._jacobian(Qm, q, l, x, y, dR, full)
+            J = self._jacobian(Qm, q, l, x, y, dR, full, dm)
             lu, piv, step, info = dgesv(J, e)
             step = step.tolist()
             if info or not math.isfinite(sum(step)):

@@ -1,7 +1,7 @@
 """Optional numba kernel of the single-pose Newton FK of the floating-nut hexapod.
 
 Same method and iterates as `SinglePoseFK.solve` (floating_nut_fk.py): cold start with the
-precomputed home step, Newton on l_c (J_c) or l (J_l, "uncompensated"), stop when |e|_inf < tol,
+second-order home step (home_step.py), Newton on l_c (J_c) or l (J_l, "uncompensated"), stop when |e|_inf < tol,
 then one chord step with the last LU. Scalar loops over the 6 legs and a 6x6 LU with partial
 pivoting written out (np.linalg.solve in numba goes through LAPACK and costs more at this size).
 The per-leg scalars are those of floating_nut_fk.py, computed directly instead of by quadratic forms:
@@ -61,22 +61,25 @@ class CompiledSinglePoseFK(SinglePoseFK):
         self.consts = np.ascontiguousarray(np.hstack(per_leg), dtype=float)
         self.euler = EULER_CODES[g.euler]
         self.p0_array = np.array(self.p0, dtype=float)
-        self.tables = {}                 # home step: [J0, LU, J0^-1] and 0-based pivots
-        for full, home in self.home.items():
-            if home is not None:
-                J0, lu, piv, inv = home
-                self.tables[full] = (np.ascontiguousarray([J0, lu, inv], dtype=float),
-                                     np.ascontiguousarray(piv, dtype=np.int64) - 1)
-        self.no_home = (np.zeros((3, 6, 6)), np.zeros(6, dtype=np.int64))
+        # home step per (full, compensate): [J0, LU of J0, model J^-1 at p0], 0-based pivots, curvature (36, 6)
+        self.tables = {}
+        for full, compensate in ((True, True), (False, True), (False, False)):
+            home = self.home[full]
+            if home is not None and self.start.ready(compensate):
+                J0, lu, piv, _ = home
+                self.tables[full, compensate] = (
+                    np.ascontiguousarray([J0, lu, self.start.inverse[compensate]], dtype=float),
+                    np.ascontiguousarray(piv, dtype=np.int64) - 1, self.start.curvature[compensate])
+        self.no_home = (np.zeros((3, 6, 6)), np.zeros(6, dtype=np.int64), np.zeros((36, 6)))
 
     def solve(self, L, p_init, compensate, jacobian, tol, max_iter, warn_condition) -> FKResult:
         full = compensate and jacobian == "full"
-        cold = p_init is None and full in self.tables
-        home, piv = self.tables[full] if cold else self.no_home
+        cold = p_init is None and (full, compensate) in self.tables
+        home, piv, curvature = self.tables[full, compensate] if cold else self.no_home
         p = self.p0_array.copy() if p_init is None else np.array(p_init, dtype=float)
         hist = np.empty(HISTORY_CAP)
         status, iterations, res, n, bound = _newton(
-            np.array(L, dtype=float), p, cold, self.consts, home, piv, self.euler,
+            np.array(L, dtype=float), p, cold, self.consts, home, piv, curvature, self.euler,
             compensate, full, float(tol), float(max_iter), warn_condition is not None, hist)
         if status != OK or (warn_condition is not None and bound > warn_condition):
             # failures and condition warnings: the numpy solver reruns the same iterates and raises
@@ -223,7 +226,8 @@ def _condition_bound(J, lu, piv):
     return math.sqrt(j2 * inv2)
 
 
-def _newton(L, p, cold, consts, home, home_piv, euler, compensate, full, tol, max_iter, want_bound, hist):
+def _newton(L, p, cold, consts, home, home_piv, curvature, euler, compensate, full, tol, max_iter, want_bound,
+            hist):
     """SinglePoseFK.solve on p (6,) in place. Returns (status, iterations, residual, len(history),
     condition bound); the residual history goes to hist."""
     legs, e, step = np.empty((6, 18)), np.empty(6), np.empty(6)
@@ -241,13 +245,19 @@ def _newton(L, p, cold, consts, home, home_piv, euler, compensate, full, tol, ma
             return OK, 0, res, n, 0.0
         if max_iter == 0:
             return NOT_CONVERGED, 0, res, n, 0.0
-        for i in range(6):
+        for i in range(6):            # second-order home step (home_step.py): d1 = A e, d = d1 - C[d1, d1]
             s = 0.0
             for j in range(6):
                 s += home[2, i, j] * e[j]
             step[i] = s
         for i in range(6):
-            p[i] += step[i]
+            corr = 0.0
+            for j in range(6):
+                r = 0.0
+                for k in range(6):
+                    r += curvature[6 * i + j, k] * step[k]
+                corr += r * step[j]
+            p[i] += step[i] - corr
         for i in range(6):
             piv[i] = home_piv[i]
             for j in range(6):

@@ -19,7 +19,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from robocal.errors import InputError
+from robocal.systems.floating_nut.batch_fk import newton_batch
 from robocal.systems.floating_nut.fk_compiled import single_pose_solver
+from robocal.systems.floating_nut.home_step import HomeStep
 from robocal.systems.floating_nut.geometry import N_LEGS, FloatingNutGeometry, omega_maps, rotation_matrices
 from robocal.systems.floating_nut.inputs import as_lengths, as_poses, single_pose_inputs
 from robocal.systems.floating_nut.results import (SINGULAR_TOL, TWO_PI, FKNotConverged, FKResult, IKDetails,
@@ -64,6 +66,7 @@ class FloatingNutKinematics:
         self._s0 = home.s[0]
         self._s0_plat = home.s[0] @ home.R[0]             # R0^T s0, home strut axis in {O_m}
         self._single = None                               # single-pose FK tables, see fk
+        self._home_step = None                            # second-order first FK step, see home_step
         self._use_numba = use_numba
 
     # ---- home values ------------------------------------------------------------------
@@ -296,59 +299,17 @@ class FloatingNutKinematics:
         L, single = as_lengths(lengths)
         P = np.array(np.broadcast_to(self.geometry.p0 if p_init is None else p_init, L.shape), dtype=float)
         as_poses(P)
-        n = L.shape[0]
-        iterations = np.zeros(n, dtype=int)
-        residual = np.full(n, np.inf)
-        history: list[float] = []
-        active = np.arange(n)
-        J = None
-        J_final = np.full((n, 6, 6), np.nan)       # last Newton matrix of each sample
-        for k in range(max_iter + 1):
-            Pa = P[active]
-            t = self._terms(Pa, what="FK iterate of sample")
-            model = t.length
-            if compensate:
-                model = model + self._gain * wrap_angle(t.phi - self._phi0)
-            err = L[active] - model
-            res = np.max(np.abs(err), axis=1)
-            residual[active] = res
-            history.append(float(res.max()))
-            todo = res >= tol
-            if J is not None and not np.all(todo):
-                # Converged: one chord step with the previous matrix (no new kinematics) takes the
-                # pose error from about |J^-1| tol down to round-off.
-                done = ~todo
-                P[active[done]] += np.linalg.solve(J[done], err[done][..., None])[..., 0]
-                J_final[active[done]] = J[done]
-            if not np.any(todo):
-                break
-            if k == max_iter:
-                bad = int(active[np.argmax(todo)])
-                raise FKNotConverged(f"FK of sample {bad} did not converge in {max_iter} iterations "
-                                     f"(residual {residual[bad]:.3g} m, tolerance {tol:g} m)", sample=bad)
-            if not np.all(todo):
-                active, Pa, t, err = active[todo], Pa[todo], _subset(t, todo), err[todo]
-            J = self._newton_matrix(t, Pa, compensate, jacobian)
-            try:
-                step = np.linalg.solve(J, err[..., None])[..., 0]
-            except np.linalg.LinAlgError as exc:
-                raise FKNotConverged(f"FK hit a singular Jacobian at iteration {k} (samples "
-                                     f"{active[:5].tolist()}...)", sample=int(active[0])) from exc
-            if not np.all(np.isfinite(step)):
-                bad = int(active[np.argmax(~np.all(np.isfinite(step), axis=1))])
-                raise FKNotConverged(f"FK of sample {bad}: singular Jacobian", sample=bad)
-            P[active] += step
-            iterations[active] += 1
-        if warn_condition is not None:
-            evaluated = np.flatnonzero(iterations > 0)
-            if evaluated.size:
-                cond = np.linalg.cond(J_final[evaluated])
-                if np.any(cond > warn_condition):
-                    log.warning("FK: Jacobian condition number %.3g near the solution of sample %d "
-                                "(close to a singularity)", cond.max(), int(evaluated[np.argmax(cond)]))
+        P, iterations, residual, history = newton_batch(self, L, P, p_init is None, compensate, jacobian, tol,
+                                                        max_iter, warn_condition)
         if single:
             return FKResult(P[0], int(iterations[0]), float(residual[0]), history)
         return FKResult(P, iterations, residual, history)
+
+    def home_step(self) -> HomeStep:
+        """The second-order first step of every cold FK solve (home_step.py), built on first use."""
+        if self._home_step is None:
+            self._home_step = HomeStep(self)
+        return self._home_step
 
     def _single_pose_solver(self):
         """The lean single-pose FK of this geometry (numba or numpy), built on first use."""
@@ -381,9 +342,3 @@ class FloatingNutKinematics:
         if np.any(g.lead == 0):
             raise InputError("a zero lead cannot be converted to motor angles", field="lead")
         return psi0 + (np.asarray(lengths, dtype=float) - self._l0) * TWO_PI * g.gear_ratio / g.lead
-
-
-def _subset(t: _PoseTerms, mask) -> _PoseTerms:
-    return _PoseTerms(*(getattr(t, k)[mask] for k in t.__dataclass_fields__))
-
-
