@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from robocal.model.batch_kinematics import BatchKinematics, SampleConstants, supports_batch
+from robocal.model.closed_chain_batch import ClosedChainBatch, supports_closed_batch
 from robocal.model.kinematics import ModelState
 from robocal.model.parameters import ParameterSet
 from robocal.residuals.base import Residual
@@ -97,8 +98,9 @@ class Problem:
     def evaluate(self, jacobian: bool = True) -> Evaluation:
         """Residuals (and Jacobian) at the parameters' current values.
 
-        Serial robots evaluate the residual types that define `evaluate_batch` for all their terms at once
-        (robocal.model.batch_kinematics); every other case goes term by term through SampleState. Both
+        Serial robots (robocal.model.batch_kinematics) and closed chains (robocal.model.closed_chain_batch)
+        evaluate the residual types that define `evaluate_batch` for all their terms at once; every other
+        case goes term by term through SampleState. Both
         write straight into one preallocated Jacobian."""
         self.blocks = self.layout()  # priors may have been switched on or off
         m = self.blocks[-1].rows.stop if self.blocks else 0
@@ -121,8 +123,11 @@ class Problem:
         col = self.params.column_map()
         n_free = ms.n_free
         batch = None
-        if supports_batch(ms) and any(res.batched for res in self.residuals):
-            batch = BatchKinematics(ms, self.sample_constants(ms), self.values, self.directions)
+        if any(res.batched for res in self.residuals):
+            if supports_batch(ms):
+                batch = BatchKinematics(ms, self.sample_constants(ms), self.values, self.directions)
+            elif supports_closed_batch(ms):     # closed chains: every sample assembled and differentiated at once
+                batch = ClosedChainBatch(ms, self.values, self.warm_starts)
         states = None
         gid = 0
         for res, block in zip(self.residuals, self.blocks):
