@@ -9,8 +9,7 @@ so the tree is walked here once for all samples, joint by joint, with whole-arra
 
 Joint kinds: revolute and prismatic (any axis), continuous (q = cos, sin), free-flyer (x y z qx qy qz qw) and
 spherical (qx qy qz qw), with Pinocchio's configuration layout and its integrate (q <- q (+) v, v LOCAL).
-The motion subspaces are read from Pinocchio at the neutral configuration, as robocal.model.batch_kinematics
-does. Other joint kinds are not handled (`supports_tree_arrays`).
+Other joint kinds are not handled (`supports_tree_arrays`).
 """
 from __future__ import annotations
 
@@ -80,14 +79,32 @@ class TreeArrays:
         self.nv_j = [model.joints[j].nv for j in range(self.njoints)]
         self.placement_R = np.array([model.jointPlacements[j].rotation for j in range(self.njoints)])
         self.placement_p = np.array([model.jointPlacements[j].translation for j in range(self.njoints)])
-        data = model.createData()
-        pin.computeJointJacobians(model, data, pin.neutral(model))
         self.axis = np.zeros((self.njoints, 3))          # revolute: rotation axis, prismatic: direction (joint frame)
         for j in range(1, self.njoints):
-            if self.kinds[j] in ("revolute", "continuous", "prismatic"):
-                S = pin.getJointJacobian(model, data, j, LOCAL)[:, self.idx_v[j]]
-                self.axis[j] = S[3:] if self.kinds[j] != "prismatic" else S[:3]
+            name = model.joints[j].shortname()
+            if name[-1] in "XYZ" and self.kinds[j] != "free":
+                self.axis[j, "XYZ".index(name[-1])] = 1.0
+            elif "Unaligned" in name:
+                self.axis[j] = model.joints[j].extract().axis
         self.axis_skew = skew(self.axis)
+        self.identity = np.eye(3)
+        self.unrotated = np.array([np.array_equal(model.jointPlacements[j].rotation, np.eye(3))
+                                   for j in range(self.njoints)])
+        self.parent_array, self.q_array = np.array(self.parents), np.array(self.idx_q)
+        self.levels = self._levels()
+        plain = [j for j in range(1, self.njoints) if self.kinds[j] in ("revolute", "prismatic")]
+        self.plain_q = np.array([self.idx_q[j] for j in plain], dtype=int)
+        self.plain_v = np.array([self.idx_v[j] for j in plain], dtype=int)
+        self.other_joints = [j for j in range(1, self.njoints) if j not in plain]
+        # per velocity coordinate: owning joint, coordinate within it, and its kind (0 prismatic, 1 revolute or
+        # continuous, 2 free-flyer translation, 3 free-flyer or spherical rotation)
+        self.v_owner, self.v_dof, self.v_kind = (np.zeros(model.nv, dtype=int) for _ in range(3))
+        for j in range(1, self.njoints):
+            for k in range(self.nv_j[j]):
+                iv, kind = self.idx_v[j] + k, self.kinds[j]
+                self.v_owner[iv], self.v_dof[iv] = j, (k - 3 if kind == "free" and k >= 3 else k)
+                self.v_kind[iv] = {"prismatic": 0, "revolute": 1, "continuous": 1}.get(
+                    kind, 2 if kind == "free" and k < 3 else 3)
         self.axis_skew2 = self.axis_skew @ self.axis_skew
         # support_v[j]: the velocity indices of the joints from the root to j
         self.support_v = []
@@ -95,72 +112,100 @@ class TreeArrays:
             cols = [np.arange(self.idx_v[i], self.idx_v[i] + self.nv_j[i]) for i in list(model.supports[j])[1:]]
             self.support_v.append(np.concatenate(cols).astype(int) if cols else np.zeros(0, dtype=int))
 
-    def placements(self, q: np.ndarray, joints=None):
-        """World placements of the joints at q (n, nq): R (n, njoints, 3, 3), p (n, njoints, 3) and the
-        placements before each joint's own motion A = oMi[parent] jointPlacement (AR, Ap, same shapes).
-        `joints`: the joints needed (with their supports); default all."""
+    def _levels(self) -> list[tuple[str, int, np.ndarray]]:
+        """The joints grouped by depth, kind and axis (0, 1, 2 along x, y, z; -1 other), root first: one set
+        of array operations per group."""
+        depth = [0] * self.njoints
+        groups: dict = {}
+        for j in range(1, self.njoints):
+            depth[j] = depth[self.parents[j]] + 1
+            kind = self.kinds[j]
+            aligned = np.flatnonzero(self.axis[j] == 1.0)
+            axis = int(aligned[0]) if len(aligned) == 1 and np.abs(self.axis[j]).sum() == 1.0 else -1
+            single = j if kind in ("free", "spherical") else 0     # those one by one
+            groups.setdefault((depth[j], kind, axis, single), []).append(j)
+        return [(key[1], key[2], np.array(js)) for key, js in sorted(groups.items())]
+
+    def placements(self, q: np.ndarray):
+        """World placements of the joints at q (n, nq): R (n, njoints, 3, 3), p (n, njoints, 3)."""
         n, nj = len(q), self.njoints
         R, p = np.empty((n, nj, 3, 3)), np.empty((n, nj, 3))
-        AR, Ap = np.empty((n, nj, 3, 3)), np.empty((n, nj, 3))
         R[:, 0], p[:, 0] = np.eye(3), 0.0
-        needed = range(1, nj) if joints is None else sorted({i for j in joints for i in self.model.supports[j]} - {0})
-        for j in needed:
-            par, iq, kind = self.parents[j], self.idx_q[j], self.kinds[j]
-            if par == 0:
-                aR, ap = self.placement_R[j], self.placement_p[j]
-            else:
-                aR = R[:, par] @ self.placement_R[j]
-                ap = np.einsum("nij,j->ni", R[:, par], self.placement_p[j]) + p[:, par]
-            AR[:, j], Ap[:, j] = aR, ap
+        for kind, axis, js in self.levels:
+            aR, ap = self.before_motion(R, p, js)
+            iq = self.q_array[js]
             if kind in ("revolute", "continuous"):
                 if kind == "revolute":
                     c, s = np.cos(q[:, iq]), np.sin(q[:, iq])
                 else:
                     c, s = q[:, iq], q[:, iq + 1]
-                Rj = np.eye(3) + s[:, None, None] * self.axis_skew[j] + (1.0 - c)[:, None, None] * self.axis_skew2[j]
-                R[:, j], p[:, j] = aR @ Rj, ap
+                if axis >= 0:   # about a coordinate axis: two columns of aR turn into each other (no 3x3 products)
+                    i, k = (axis + 1) % 3, (axis + 2) % 3
+                    c, s = c[..., None], s[..., None]
+                    B = np.empty((n, len(js), 3, 3))
+                    B[..., i] = c * aR[..., i] + s * aR[..., k]
+                    B[..., k] = c * aR[..., k] - s * aR[..., i]
+                    B[..., axis] = aR[..., axis]
+                    R[:, js] = B
+                else:
+                    Rj = (self.identity + s[..., None, None] * self.axis_skew[js]
+                          + (1.0 - c)[..., None, None] * self.axis_skew2[js])
+                    R[:, js] = aR @ Rj
+                p[:, js] = ap
             elif kind == "prismatic":
-                R[:, j] = aR
-                p[:, j] = ap + q[:, iq, None] * (aR @ self.axis[j])
-            elif kind == "free":
-                R[:, j] = aR @ quaternion_matrices(q[:, iq + 3:iq + 7])
-                p[:, j] = ap + (np.einsum("nij,nj->ni", aR, q[:, iq:iq + 3]) if aR.ndim == 3 else q[:, iq:iq + 3] @ aR.T)
-            else:   # spherical
-                R[:, j], p[:, j] = aR @ quaternion_matrices(q[:, iq:iq + 4]), ap
-        return R, p, AR, Ap
+                R[:, js] = aR
+                direction = aR[..., axis] if axis >= 0 else (aR @ self.axis[js][..., None])[..., 0]
+                p[:, js] = ap + q[:, iq, None] * direction
+            else:   # one free-flyer or spherical joint
+                aR, ap, i = aR[..., 0, :, :], ap[..., 0, :], iq[0]     # (3, 3) on the root, else (n, 3, 3)
+                if kind == "free":
+                    R[:, js[0]] = aR @ quaternion_matrices(q[:, i + 3:i + 7])
+                    p[:, js[0]] = ap + np.einsum("...ij,nj->ni", aR, q[:, i:i + 3])
+                else:
+                    R[:, js[0]], p[:, js[0]] = aR @ quaternion_matrices(q[:, i:i + 4]), ap
+        return R, p
+
+    def before_motion(self, R: np.ndarray, p: np.ndarray, js: np.ndarray):
+        """oMi[parent] jointPlacement of the joints js: ((n, k, 3, 3), (n, k, 3)), or constant (k, 3, 3), (k, 3)
+        for joints on the root; from the world placements R, p of their parents."""
+        par = self.parent_array[js]
+        if not par.any():
+            return self.placement_R[js], self.placement_p[js]
+        Rp = R[:, par]
+        aR = Rp if self.unrotated[js].all() else Rp @ self.placement_R[js]
+        if not self.placement_p[js].any():
+            return aR, p[:, par]
+        return aR, np.einsum("nkij,kj->nki", Rp, self.placement_p[js]) + p[:, par]
 
     def motion_columns(self, R: np.ndarray, p: np.ndarray, columns: np.ndarray) -> np.ndarray:
         """(n, 6, len(columns)) WORLD twists [v; w] of the velocity coordinates `columns` (each joint's motion
         subspace carried by its world placement Ad(oMi) S)."""
-        n = len(R)
-        out = np.zeros((n, 6, len(columns)))
-        owner = {}
-        for j in range(1, self.njoints):
-            for k in range(self.nv_j[j]):
-                owner[self.idx_v[j] + k] = (j, k)
-        for col, iv in enumerate(columns):
-            j, k = owner[int(iv)]
-            kind = self.kinds[j]
-            if kind == "prismatic":
-                out[:, :3, col] = R[:, j] @ self.axis[j]
-            elif kind in ("revolute", "continuous"):
-                w = R[:, j] @ self.axis[j]
-                out[:, :3, col], out[:, 3:, col] = np.cross(p[:, j], w), w
-            elif kind == "free" and k < 3:
-                out[:, :3, col] = R[:, j, :, k]
-            else:       # an angular coordinate of a free-flyer or spherical joint
-                w = R[:, j, :, k - 3 if kind == "free" else k]
-                out[:, :3, col], out[:, 3:, col] = np.cross(p[:, j], w), w
+        columns = np.asarray(columns, dtype=int)
+        out = np.zeros((len(R), 6, len(columns)))
+        j, k = self.v_owner[columns], self.v_dof[columns]
+        kinds = self.v_kind[columns]
+        prismatic = np.flatnonzero(kinds == 0)
+        out[:, :3, prismatic] = np.einsum("nkij,kj->nik", R[:, j[prismatic]], self.axis[j[prismatic]])
+        linear = np.flatnonzero(kinds == 2)        # translation coordinates of a free-flyer
+        # advanced indices split by a slice: the indexed axis comes first, (k, n, 3)
+        out[:, :3, linear] = R[:, j[linear], :, k[linear]].transpose(1, 2, 0)
+        turning = np.flatnonzero(kinds == 1)
+        turning_free = np.flatnonzero(kinds == 3)  # angular coordinates of free-flyer and spherical joints
+        w = np.concatenate([np.einsum("nkij,kj->nki", R[:, j[turning]], self.axis[j[turning]]),
+                            R[:, j[turning_free], :, k[turning_free]].transpose(1, 0, 2)], axis=1)
+        cols = np.concatenate([turning, turning_free])
+        if len(cols):
+            out[:, 3:, cols] = w.transpose(0, 2, 1)
+            out[:, :3, cols] = np.cross(p[:, j[cols]], w).transpose(0, 2, 1)
         return out
 
     def integrate(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
         """q (+) v for q (n, nq), v (n, nv), as pin.integrate sample by sample (to rounding)."""
         out = q.copy()
-        for j in range(1, self.njoints):
+        out[:, self.plain_q] += v[:, self.plain_v]      # one-dof revolute and prismatic joints at once
+        for j in self.other_joints:
             iq, iv, kind = self.idx_q[j], self.idx_v[j], self.kinds[j]
-            if kind in ("revolute", "prismatic"):
-                out[:, iq] += v[:, iv]
-            elif kind == "continuous":
+            if kind == "continuous":
                 c, s = np.cos(v[:, iv]), np.sin(v[:, iv])
                 out[:, iq], out[:, iq + 1] = q[:, iq] * c - q[:, iq + 1] * s, q[:, iq + 1] * c + q[:, iq] * s
             elif kind == "free":

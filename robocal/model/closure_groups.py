@@ -1,0 +1,136 @@
+"""A closed chain's closures grouped by kind, and their rows at many configurations at once.
+
+`closure_state` is what one Newton step of the batched assembly (robocal.model.closed_chain_batch) needs at
+a stack of configurations: the closure vector c, its derivative on the solved coordinates C_s, and per
+group the derivatives D1, D2 of the rows w.r.t. LOCAL twists of the anchors and E = D Ad(oMf^-1) w.r.t.
+world twists (what the parameter Jacobian needs). Closures of one kind are stacked, so one group costs
+one set of array operations whatever the number of its closures.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from robocal.model.closure_arrays import closure_arrays, hinge_bases
+from robocal.model.tree_arrays import TreeArrays
+
+
+@dataclass
+class ClosureGroup:
+    """The closures of one kind, stacked: their rows in c, anchor frames and joints, anchor placements on
+    those joints, which solved coordinates move each anchor, and the kind's constants."""
+
+    kind: str
+    rows: np.ndarray                  # (k * rows,) row indices into the closure vector
+    frames: tuple[list, list]         # anchor frame ids (frame 1s, frame 2s)
+    joints: tuple[np.ndarray, np.ndarray]
+    placements: tuple                 # ((k, 3, 3), (k, 3)) per side
+    masks: tuple[np.ndarray, np.ndarray]   # (k, 1, n_solved) 1.0 where the solved coordinate moves the anchor
+    length: np.ndarray                # (k,) distance kind's target lengths
+    axis: np.ndarray                  # (k, 3) revolute kind's hinge axes
+    basis: np.ndarray                 # (k, 2, 3) directions of the hinge misalignment rows
+
+
+def closure_groups(model, loops, tree: TreeArrays) -> list[ClosureGroup]:
+    frames, solved = model.frames, loops.solved_v
+    starts = np.cumsum([0] + [c.rows for c in loops.closures])
+    groups = []
+    for kind in dict.fromkeys(c.kind for c in loops.closures):
+        ks = [k for k, c in enumerate(loops.closures) if c.kind == kind]
+        closures = [loops.closures[k] for k in ks]
+        ids = tuple([model.getFrameId(getattr(c, f"frame{s}")) for c in closures] for s in (1, 2))
+        joints = tuple(np.array([frames[f].parentJoint for f in side]) for side in ids)
+        placements = tuple((np.array([frames[f].placement.rotation for f in side]),
+                            np.array([frames[f].placement.translation for f in side])) for side in ids)
+        masks = tuple(np.array([np.isin(solved, tree.support_v[j]) for j in js], dtype=float)[:, None, :]
+                      for js in joints)
+        axes = np.array([c.axis if c.axis is not None else (1.0, 0.0, 0.0) for c in closures], dtype=float)
+        groups.append(ClosureGroup(kind, np.concatenate([np.arange(starts[k], starts[k + 1]) for k in ks]), ids,
+                                   joints, placements, masks, np.array([c.length for c in closures]), axes,
+                                   hinge_bases(axes)))
+    return groups
+
+
+def cross(a: np.ndarray, b: np.ndarray, axis: int = -1) -> np.ndarray:
+    """a x b along `axis` (np.cross without its reshaping overhead, which dominates on small stacks)."""
+    a0, a1, a2 = (np.take(a, i, axis=axis) for i in range(3))
+    b0, b1, b2 = (np.take(b, i, axis=axis) for i in range(3))
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=axis)
+
+
+def to_world(D: np.ndarray, R: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """D Ad(M^-1) for M = (R, p): a derivative w.r.t. M's LOCAL twist turned into one w.r.t. a world twist.
+    Ad(M^-1) = [[R^T, -R^T [p]x], [0, R^T]], so the two halves are Dv R^T and Dw R^T - (Dv R^T) [p]x, whose
+    rows are e [p]x = (e x p)^T."""
+    Ev = np.einsum("nij,nkj->nik", D[..., :3], R)
+    out = np.empty(D.shape)
+    out[..., :3] = Ev
+    out[..., 3:] = np.einsum("nij,nkj->nik", D[..., 3:], R) - cross(Ev, p[:, None, :])
+    return out
+
+
+def anchor_poses(g: ClosureGroup, R: np.ndarray, p: np.ndarray):
+    """((R1, p1), (R2, p2)): world poses of the group's anchors, (n k, 3, 3) and (n k, 3), sample-major."""
+    n, k = len(R), len(g.length)
+    poses = []
+    for js, (Rf, pf) in zip(g.joints, g.placements):
+        Rj = R[:, js]
+        poses.append(((Rj @ Rf).reshape(n * k, 3, 3),
+                      (p[:, js] + np.einsum("nkij,kj->nki", Rj, pf)).reshape(n * k, 3)))
+    return poses
+
+
+def group_rows(g: ClosureGroup, poses):
+    """c, D1, D2 of the group at its anchor poses (closure_arrays with the kind's constants)."""
+    (R1, p1), (R2, p2) = poses
+    n = len(R1) // len(g.length)
+    if g.kind == "revolute":
+        constants = dict(axis=np.tile(g.axis, (n, 1)), basis=np.tile(g.basis, (n, 1, 1)))
+    else:
+        constants = dict(length=np.tile(g.length, n)) if g.kind == "distance" else {}
+    return closure_arrays(g.kind, R1, p1, R2, p2, **constants)
+
+
+def closure_state(tree: TreeArrays, groups: list[ClosureGroup], n_rows: int, solved: np.ndarray,
+                  q: np.ndarray) -> dict:
+    """At configurations q (n, nq): world placements of every joint R, p, the solved coordinates' world motion
+    columns W (n, 6, n_solved), c (n, n_rows) and C_s = dc/dv on the solved coordinates (n, n_rows, n_solved)."""
+    R, p = tree.placements(q)
+    W = tree.motion_columns(R, p, solved)
+    n, ns = len(q), len(solved)
+    c, Cs = np.empty((n, n_rows)), np.empty((n, n_rows, ns))
+    for g in groups:
+        k = len(g.length)
+        poses = anchor_poses(g, R, p)
+        (R1, p1), (R2, p2) = poses
+        if g.kind == "point":
+            # c = R1^T (p2 - p1); a world twist (v, w) of the body carrying anchor i moves the world point p2
+            # by v + w x p2 (seen from either body), so dc = R1^T (u2 - u1): no 6x6 algebra per anchor
+            R1t = np.swapaxes(R1.reshape(n, k, 3, 3), -1, -2)
+            c[:, g.rows] = np.einsum("nkij,nkj->nki", R1t, (p2 - p1).reshape(n, k, 3)).reshape(n, 3 * k)
+            u = W[:, None, :3] + cross(W[:, None, 3:], p2.reshape(n, k, 3, 1), axis=2)
+            Cs[:, g.rows] = (R1t @ (u * (g.masks[1] - g.masks[0]))).reshape(n, 3 * k, ns)
+            continue
+        ck, D1, D2 = group_rows(g, poses)
+        r = ck.shape[1]
+        E1, E2 = to_world(D1, R1, p1).reshape(n, k, r, 6), to_world(D2, R2, p2).reshape(n, k, r, 6)
+        c[:, g.rows] = ck.reshape(n, k * r)
+        # a coordinate that does not move an anchor contributes nothing: mask the product's columns
+        Wk = W[:, None]
+        Cs[:, g.rows] = ((E1 @ Wk) * g.masks[0] + (E2 @ Wk) * g.masks[1]).reshape(n, k * r, ns)
+    return {"R": R, "p": p, "W": W, "c": c, "Cs": Cs}
+
+
+def closure_parts(groups: list[ClosureGroup], R: np.ndarray, p: np.ndarray) -> list[tuple]:
+    """Per group (D1, D2, E1, E2), each (n, k, rows, 6): the rows' derivatives w.r.t. LOCAL twists of the
+    anchors (D) and w.r.t. world twists of the bodies carrying them (E = D Ad(oMf^-1))."""
+    n, parts = len(R), []
+    for g in groups:
+        poses = anchor_poses(g, R, p)
+        ck, D1, D2 = group_rows(g, poses)
+        k, r = len(g.length), ck.shape[1]
+        (R1, p1), (R2, p2) = poses
+        parts.append((D1.reshape(n, k, r, 6), D2.reshape(n, k, r, 6), to_world(D1, R1, p1).reshape(n, k, r, 6),
+                      to_world(D2, R2, p2).reshape(n, k, r, 6)))
+    return parts
