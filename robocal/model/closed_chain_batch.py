@@ -25,10 +25,11 @@ import pinocchio as pin
 
 from robocal.errors import AssemblyError
 from robocal.model.batch_kinematics import FrameArrays
-from robocal.model.closure_groups import closure_groups, closure_parts, closure_state
-from robocal.model.lie_arrays import adjoint_inverse, skew
+from robocal.model.closure_groups import closure_groups, closure_state, parameter_rows
+from robocal.model.lie_arrays import adjoint_inverse
 from robocal.model.loops import assemble
 from robocal.model.tree_arrays import TreeArrays, supports_tree_arrays
+from robocal.model.tree_twists import TreeTwists
 
 CHUNK = 256              # samples per block: work arrays this size stay in cache and in reused memory
 ARMIJO = 1e-4            # damped_newton's sufficient decrease: a full step below it goes to the per-sample solver
@@ -42,15 +43,6 @@ def supports_closed_batch(ms) -> bool:
     return (loops is not None and not loops.relations and ms.tilts is None and not ms.compliance_cols
             and not ms.backlash_cols and not ms.compliance.any() and not ms.backlash.any()
             and supports_tree_arrays(ms.model))
-
-
-def adjoint(R: np.ndarray, p: np.ndarray) -> np.ndarray:
-    """(n, 6, 6) action matrices of the poses (R, p), twist order [v; w]."""
-    out = np.zeros(R.shape[:-2] + (6, 6))
-    out[..., :3, :3] = R
-    out[..., 3:, 3:] = R
-    out[..., :3, 3:] = skew(p) @ R
-    return out
 
 
 class ClosedChainBatch:
@@ -68,13 +60,16 @@ class ClosedChainBatch:
         self.n = n = len(values)
         self.actuated = (values + ms.offsets)[:, ms.actuated_order]
         self.groups = closure_groups(self.model, self.loops, self.tree)
-        # the few columns the closures' parameter rows can hold: tree joints' placements and offsets (tcols)
+        self.twists = TreeTwists(ms, self.tree)
+        self.group_pairs = [[self.twists.pairs(js) for js in g.joints] for g in self.groups]
+        # the few columns the closures' parameter rows can hold: tree joints' placements and offsets
         # and the anchor frames' placements
-        self.tcols = np.flatnonzero(np.any(ms.P_joint != 0.0, axis=0) | np.any(ms.P_offset != 0.0, axis=0))
+        self.tcols = self.twists.free_columns
         anchors = [f for g in self.groups for side in g.frames for f in side]
         framed = [np.any(ms.P_frame[f] != 0.0, axis=0) for f in anchors if f in ms.P_frame]
         self.ccols = np.union1d(self.tcols, np.flatnonzero(np.any(framed, axis=0)) if framed else [])
         self.ccols = self.ccols.astype(int)
+        self.positions = np.searchsorted(self.ccols, self.twists.columns)     # padding (n_free) -> len(ccols)
         ns, m = len(self.solved), self.loops.n_rows
         self.R, self.p = np.empty((n, self.model.njoints, 3, 3)), np.empty((n, self.model.njoints, 3))
         self.W = np.empty((n, 6, ns))
@@ -168,44 +163,18 @@ class ClosedChainBatch:
         return inv if square else inv @ np.swapaxes(Cs, 1, 2)
 
     # ---- parameter Jacobians ---------------------------------------------------------------
-    def _tree_twists(self, joint: int, R: np.ndarray, p: np.ndarray) -> np.ndarray | None:
-        """(n, 6, len(tcols)) world twist of `joint` per free parameter in `tcols` with every joint held, at the
-        joint placements R, p (None if no parameter moves it): placement twists and offsets of its supports."""
-        ms, cols, out = self.ms, self.tcols, None
-        for i in list(self.model.supports[joint])[1:]:
-            block = ms.P_joint[6 * (i - 1):6 * i][:, cols]
-            iv, nv = self.tree.idx_v[i], self.tree.nv_j[i]
-            offsets = ms.P_offset[iv:iv + nv][:, cols]
-            if block.any():
-                aR, ap = self.tree.before_motion(R, p, np.array([i]))
-                term = adjoint(aR[..., 0, :, :], ap[..., 0, :]) @ block
-                out = term if out is None else out + term
-            if offsets.any():
-                term = self.tree.motion_columns(R, p, np.arange(iv, iv + nv)) @ offsets
-                out = term if out is None else out + term
-        return None if out is None else np.broadcast_to(out, (len(R), 6, len(cols)))
-
     def _parameter_rows(self, st: dict) -> np.ndarray:
         """C_theta (n, m, len(ccols)): the closure rows' derivative w.r.t. the free parameters, joints held."""
-        n, ms = len(st["c"]), self.ms
-        out = np.zeros((n, self.loops.n_rows, len(self.ccols)))
-        tpos = np.searchsorted(self.ccols, self.tcols)
-        twists: dict = {}
-        for g, (D1, D2, E1, E2) in zip(self.groups, closure_parts(self.groups, st["R"], st["p"])):
-            k, r = D1.shape[1], D1.shape[2]
-            rows = np.zeros((n, k, r, len(self.ccols)))
-            for js, fids, D, E in zip(g.joints, g.frames, (D1, D2), (E1, E2)):
-                for j in js:
-                    if j not in twists:
-                        twists[j] = self._tree_twists(int(j), st["R"], st["p"])
-                if any(twists[j] is not None for j in js):
-                    zero = np.zeros((n, 6, len(self.tcols)))
-                    rows[..., tpos] += E @ np.stack([zero if twists[j] is None else twists[j] for j in js], axis=1)
-                if any(f in ms.P_frame for f in fids):
-                    F = np.array([ms.P_frame[f][:, self.ccols] if f in ms.P_frame else np.zeros((6, len(self.ccols)))
-                                  for f in fids])
-                    rows += D @ F
-            out[:, g.rows] = rows.reshape(n, k * r, -1)
+        n, ms, nc = len(st["c"]), self.ms, len(self.ccols)
+        out = np.empty((n, self.loops.n_rows, nc))
+        G = self.twists.twists(st["R"], st["p"]) if len(self.twists.active) else None
+        zero = np.zeros((6, nc))
+        for g, pairs in zip(self.groups, self.group_pairs):
+            sides = [(pk, self.positions[pa], G[:, pa]) if G is not None and len(pk) else (None, None, None)
+                     for pk, pa in pairs]
+            frames = [np.array([ms.P_frame[f][:, self.ccols] if f in ms.P_frame else zero for f in fids])
+                      if any(f in ms.P_frame for f in fids) else None for fids in g.frames]
+            out[:, g.rows] = parameter_rows(g, st["R"], st["p"], sides, frames, nc)
         return out
 
     def frame(self, frame, samples, jacobian: bool = True) -> FrameArrays:
@@ -222,18 +191,21 @@ class ClosedChainBatch:
         if not jacobian:
             return FrameArrays(R, p, R0, p0, None, np.eye(6))
         mask = np.isin(self.solved, self.tree.support_v[f.parentJoint]).astype(float)
-        J = np.zeros((len(samples), 6, ms.n_free))
+        J = np.zeros((len(samples), 6, ms.n_free + 1))       # the last column takes the twists' padding
+        _, supports = self.twists.pairs([f.parentJoint])
         for start in range(0, len(samples), CHUNK):
             block = slice(start, min(start + CHUNK, len(samples)))
             s, Jb = samples[block], J[block]
             to_local = adjoint_inverse(R0[block], p0[block])
             Y = (to_local @ (self.W[s] * mask)) @ self.solver[s]
             Jb[..., self.ccols] = -(Y @ self.C_theta[s])
-            twists = self._tree_twists(f.parentJoint, self.R[s], self.p[s])
-            if twists is not None:
-                Jb[..., self.tcols] += to_local @ twists
+            if len(supports):
+                G = self.twists.twists(self.R[s], self.p[s])
+                for a in supports:
+                    Jb[..., self.twists.columns[a]] += to_local @ G[:, a]
             if ms.has_base_params:
-                Jb += to_local @ ms.P_base
+                Jb[..., :ms.n_free] += to_local @ ms.P_base
+        J = J[..., :ms.n_free]
         if fid in ms.P_frame:
             J += ms.P_frame[fid]
         return FrameArrays(R, p, R0, p0, J, np.eye(6))
