@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from robocal.model.closure_arrays import closure_arrays, hinge_bases
-from robocal.model.tree_arrays import TreeArrays
+from robocal.model.tree_arrays import TreeArrays, cross
 
 
 @dataclass
@@ -50,13 +50,6 @@ def closure_groups(model, loops, tree: TreeArrays) -> list[ClosureGroup]:
                                    joints, placements, masks, np.array([c.length for c in closures]), axes,
                                    hinge_bases(axes)))
     return groups
-
-
-def cross(a: np.ndarray, b: np.ndarray, axis: int = -1) -> np.ndarray:
-    """a x b along `axis` (np.cross without its reshaping overhead, which dominates on small stacks)."""
-    a0, a1, a2 = (np.take(a, i, axis=axis) for i in range(3))
-    b0, b1, b2 = (np.take(b, i, axis=axis) for i in range(3))
-    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=axis)
 
 
 def to_world(D: np.ndarray, R: np.ndarray, p: np.ndarray) -> np.ndarray:
@@ -106,11 +99,12 @@ def closure_state(tree: TreeArrays, groups: list[ClosureGroup], n_rows: int, sol
         (R1, p1), (R2, p2) = poses
         if g.kind == "point":
             # c = R1^T (p2 - p1); a world twist (v, w) of the body carrying anchor i moves the world point p2
-            # by v + w x p2 (seen from either body), so dc = R1^T (u2 - u1): no 6x6 algebra per anchor
+            # by v + w x p2 (seen from either body), so dc = R1^T (u2 - u1), R1^T (v + w x p2) = [R1^T, -B] (v, w)
+            # with B = R1^T [p2]x, whose rows are (rows of R1^T) x p2: no 6x6 algebra per anchor
             R1t = np.swapaxes(R1.reshape(n, k, 3, 3), -1, -2)
             c[:, g.rows] = np.einsum("nkij,nkj->nki", R1t, (p2 - p1).reshape(n, k, 3)).reshape(n, 3 * k)
-            u = W[:, None, :3] + cross(W[:, None, 3:], p2.reshape(n, k, 3, 1), axis=2)
-            Cs[:, g.rows] = (R1t @ (u * (g.masks[1] - g.masks[0]))).reshape(n, 3 * k, ns)
+            E = np.concatenate([R1t, -cross(R1t, p2.reshape(n, k, 1, 3))], axis=-1)
+            Cs[:, g.rows] = ((E @ W[:, None]) * (g.masks[1] - g.masks[0])).reshape(n, 3 * k, ns)
             continue
         ck, D1, D2 = group_rows(g, poses)
         r = ck.shape[1]

@@ -30,6 +30,13 @@ def supports_tree_arrays(model: pin.Model) -> bool:
     return all(j.shortname() in KINDS for j in list(model.joints)[1:])
 
 
+def cross(a: np.ndarray, b: np.ndarray, axis: int = -1) -> np.ndarray:
+    """a x b along `axis` (np.cross without its axis juggling, which dominates on small stacks)."""
+    a0, a1, a2 = (np.take(a, i, axis=axis) for i in range(3))
+    b0, b1, b2 = (np.take(b, i, axis=axis) for i in range(3))
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=axis)
+
+
 def quaternion_matrices(quat: np.ndarray) -> np.ndarray:
     """(n, 3, 3) rotations of quaternions (n, 4), x y z w, as Eigen's toRotationMatrix."""
     x, y, z, w = quat[:, 0], quat[:, 1], quat[:, 2], quat[:, 3]
@@ -62,8 +69,8 @@ def se3_translation_step(w: np.ndarray, v: np.ndarray) -> np.ndarray:
     with np.errstate(divide="ignore", invalid="ignore"):
         a = np.where(small, 0.5 - theta ** 2 / 24.0, (1.0 - np.cos(theta)) / t2)
         b = np.where(small, 1.0 / 6.0 - theta ** 2 / 120.0, (theta - np.sin(theta)) / (t2 * theta))
-    wxv = np.cross(w, v)
-    return v + a[:, None] * wxv + b[:, None] * np.cross(w, wxv)
+    wxv = cross(w, v)
+    return v + a[:, None] * wxv + b[:, None] * cross(w, wxv)
 
 
 class TreeArrays:
@@ -106,7 +113,8 @@ class TreeArrays:
                 self.v_kind[iv] = {"prismatic": 0, "revolute": 1, "continuous": 1}.get(
                     kind, 2 if kind == "free" and k < 3 else 3)
         self.axis_skew2 = self.axis_skew @ self.axis_skew
-        # support_v[j]: the velocity indices of the joints from the root to j
+        # supports[j]: the joints from the root to j; support_v[j]: their velocity indices
+        self.supports = [set(int(i) for i in model.supports[j]) for j in range(self.njoints)]
         self.support_v = []
         for j in range(self.njoints):
             cols = [np.arange(self.idx_v[i], self.idx_v[i] + self.nv_j[i]) for i in list(model.supports[j])[1:]]
@@ -196,7 +204,7 @@ class TreeArrays:
         cols = np.concatenate([turning, turning_free])
         if len(cols):
             out[:, 3:, cols] = w.transpose(0, 2, 1)
-            out[:, :3, cols] = np.cross(p[:, j[cols]], w).transpose(0, 2, 1)
+            out[:, :3, cols] = cross(p[:, j[cols]], w).transpose(0, 2, 1)
         return out
 
     def integrate(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:

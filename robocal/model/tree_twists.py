@@ -57,8 +57,7 @@ class TreeTwists:
                     self.offset_rows.append(row)
                     self.offset_owner.append(a)
         self.offset_v = np.array(self.offset_v, dtype=int)
-        self.supports = {j: [a for a, i in enumerate(self.active) if int(i) in list(self.model.supports[j])]
-                         for j in range(nj)}
+        self.supports = {j: [a for a, i in enumerate(self.active) if int(i) in tree.supports[j]] for j in range(nj)}
 
     @property
     def free_columns(self) -> np.ndarray:
