@@ -31,7 +31,7 @@ from robocal.model.loops import assemble
 from robocal.model.tree_arrays import TreeArrays, supports_tree_arrays
 from robocal.model.tree_twists import TreeTwists
 
-CHUNK = 256              # samples per block: work arrays this size stay in cache and in reused memory
+CHUNK = 512              # samples per block: work arrays this size stay in cache and in reused memory
 ARMIJO = 1e-4            # damped_newton's sufficient decrease: a full step below it goes to the per-sample solver
 SINGULAR_RCOND = 1e-5    # assemble's default: smallest / largest singular value of C_s at the solution
 
@@ -70,6 +70,7 @@ class ClosedChainBatch:
         self.ccols = np.union1d(self.tcols, np.flatnonzero(np.any(framed, axis=0)) if framed else [])
         self.ccols = self.ccols.astype(int)
         self.positions = np.searchsorted(self.ccols, self.twists.columns)     # padding (n_free) -> len(ccols)
+        self.group_frames = [[self._frame_columns(fids) for fids in g.frames] for g in self.groups]
         ns, m = len(self.solved), self.loops.n_rows
         self.R, self.p = np.empty((n, self.model.njoints, 3, 3)), np.empty((n, self.model.njoints, 3))
         self.W = np.empty((n, 6, ns))
@@ -163,17 +164,29 @@ class ClosedChainBatch:
         return inv if square else inv @ np.swapaxes(Cs, 1, 2)
 
     # ---- parameter Jacobians ---------------------------------------------------------------
+    def _frame_columns(self, fids):
+        """(columns (k, f) among ccols padded with len(ccols), F (k, 6, f)): the anchor frames' own placement
+        columns, or None when no anchor of the list has any."""
+        P = self.ms.P_frame
+        used = [np.flatnonzero(np.any(P[f] != 0.0, axis=0)) if f in P else np.zeros(0, dtype=int) for f in fids]
+        width = max(len(u) for u in used)
+        if width == 0:
+            return None
+        cols = np.full((len(fids), width), len(self.ccols), dtype=int)
+        F = np.zeros((len(fids), 6, width))
+        for k, (f, u) in enumerate(zip(fids, used)):
+            cols[k, :len(u)] = np.searchsorted(self.ccols, u)
+            F[k, :, :len(u)] = P[f][:, u]
+        return cols, F
+
     def _parameter_rows(self, st: dict) -> np.ndarray:
         """C_theta (n, m, len(ccols)): the closure rows' derivative w.r.t. the free parameters, joints held."""
-        n, ms, nc = len(st["c"]), self.ms, len(self.ccols)
+        n, nc = len(st["c"]), len(self.ccols)
         out = np.empty((n, self.loops.n_rows, nc))
         G = self.twists.twists(st["R"], st["p"]) if len(self.twists.active) else None
-        zero = np.zeros((6, nc))
-        for g, pairs in zip(self.groups, self.group_pairs):
+        for g, pairs, frames in zip(self.groups, self.group_pairs, self.group_frames):
             sides = [(pk, self.positions[pa], G[:, pa]) if G is not None and len(pk) else (None, None, None)
                      for pk, pa in pairs]
-            frames = [np.array([ms.P_frame[f][:, self.ccols] if f in ms.P_frame else zero for f in fids])
-                      if any(f in ms.P_frame for f in fids) else None for fids in g.frames]
             out[:, g.rows] = parameter_rows(g, st["R"], st["p"], sides, frames, nc)
         return out
 

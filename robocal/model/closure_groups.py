@@ -119,9 +119,10 @@ def closure_state(tree: TreeArrays, groups: list[ClosureGroup], n_rows: int, sol
 def parameter_rows(g: ClosureGroup, R: np.ndarray, p: np.ndarray, sides, frames, nc: int) -> np.ndarray:
     """(n, k * rows, nc): the group's rows' derivative w.r.t. the parameters (nc compact columns), joints held.
 
-    sides: per side (anchor k of each pair, the pair's columns (P, c) among the nc, dummy nc for padding,
-    U (n, P, 6, c) world twists of a joint supporting that anchor's body), or None;
-    frames: per side (k, 6, nc) LOCAL twists of each anchor frame (its own placement parameters), or None."""
+    sides: per side (anchor of each pair (P,), the pair's columns (P, c) among the nc, padded with nc, and
+    U (n, P, 6, c) the world twists of a joint supporting that anchor's body), or Nones;
+    frames: per side (columns (k, f) among the nc, padded with nc; F (k, 6, f) LOCAL twists of each anchor
+    frame per column: its own placement parameters), or None."""
     n, k = len(R), len(g.length)
     poses = anchor_poses(g, R, p)
     (R1, p1), (R2, p2) = poses
@@ -131,28 +132,33 @@ def parameter_rows(g: ClosureGroup, R: np.ndarray, p: np.ndarray, sides, frames,
     else:
         ck, D1, D2 = group_rows(g, poses)
     r = 3 if point else ck.shape[1]
-    out = np.zeros((n, k, r, nc + 1))
-    for side, (pk, cols, U) in enumerate(s for s in sides):
+    out = np.zeros((n, k, r, nc + 1))       # the last column takes the padding
+
+    def scatter(anchors, columns, values):
+        for i, (kk, cc) in enumerate(zip(anchors, columns)):
+            view = out[:, kk]
+            view[..., cc] += values[:, i]
+
+    for side, (pk, cols, U) in enumerate(sides):
         if pk is None:
             continue
         if point:   # as in closure_state: E1 U = -R1^T (Uv + Uw x p2), E2 U = R1^T (Uv + Uw x p2)
             at = p2.reshape(n, k, 3)[:, pk, :, None]
-            contribution = (1.0 if side else -1.0) * (R1t[:, pk] @ (U[:, :, :3] + cross(U[:, :, 3:], at, axis=2)))
+            values = (1.0 if side else -1.0) * (R1t[:, pk] @ (U[:, :, :3] + cross(U[:, :, 3:], at, axis=2)))
         else:
             D, (Ra, pa) = (D1, D2)[side], poses[side]
-            contribution = to_world(D, Ra, pa).reshape(n, k, r, 6)[:, pk] @ U
-        for i, (kk, cc) in enumerate(zip(pk, cols)):
-            view = out[:, kk]
-            view[..., cc] += contribution[:, i]
-    out = out[..., :nc]
-    if point:
-        if frames[0] is not None:      # D1 = [-I, [cp]x]
+            values = to_world(D, Ra, pa).reshape(n, k, r, 6)[:, pk] @ U
+        scatter(pk, cols, values)
+    for side, frame in enumerate(frames):
+        if frame is None:
+            continue
+        cols, F = frame
+        if point and side == 0:      # D1 = [-I, [cp]x]
             cp = np.einsum("nkij,nkj->nki", R1t, (p2 - p1).reshape(n, k, 3))
-            out += cross(np.broadcast_to(cp[..., None], (n, k, 3, nc)), frames[0][:, 3:], axis=2) - frames[0][:, :3]
-        if frames[1] is not None:      # D2 = [R12, 0]
-            out += (R1t @ R2.reshape(n, k, 3, 3)) @ frames[1][:, :3]
-    else:
-        for D, F in zip((D1, D2), frames):
-            if F is not None:
-                out += D.reshape(n, k, r, 6) @ F
-    return out.reshape(n, k * r, nc)
+            values = cross(np.broadcast_to(cp[..., None], (n, k, 3, F.shape[-1])), F[:, 3:], axis=2) - F[:, :3]
+        elif point:                  # D2 = [R12, 0]
+            values = (R1t @ R2.reshape(n, k, 3, 3)) @ F[:, :3]
+        else:
+            values = (D1, D2)[side].reshape(n, k, r, 6) @ F
+        scatter(range(k), cols, values)
+    return out[..., :nc].reshape(n, k * r, nc)
