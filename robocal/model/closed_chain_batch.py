@@ -31,7 +31,7 @@ from robocal.model.loops import assemble
 from robocal.model.tree_arrays import TreeArrays, supports_tree_arrays
 from robocal.model.tree_twists import TreeTwists
 
-CHUNK = 512              # samples per block: work arrays this size stay in cache and in reused memory
+CHUNK = 256              # samples per block: work arrays this size stay in cache and in reused memory
 ARMIJO = 1e-4            # damped_newton's sufficient decrease: a full step below it goes to the per-sample solver
 SINGULAR_RCOND = 1e-5    # assemble's default: smallest / largest singular value of C_s at the solution
 
@@ -71,24 +71,34 @@ class ClosedChainBatch:
         self.ccols = self.ccols.astype(int)
         self.positions = np.searchsorted(self.ccols, self.twists.columns)     # padding (n_free) -> len(ccols)
         self.group_frames = [[self._frame_columns(fids) for fids in g.frames] for g in self.groups]
-        ns, m = len(self.solved), self.loops.n_rows
-        self.R, self.p = np.empty((n, self.model.njoints, 3, 3)), np.empty((n, self.model.njoints, 3))
-        self.W = np.empty((n, 6, ns))
-        self.solver = np.empty((n, ns, m)) if jacobian else None
-        self.C_theta = np.empty((n, m, len(self.ccols))) if jacobian else None
         neutral = pin.neutral(self.model)
         guesses = np.array([warm_starts.get(i, neutral) for i in range(n)], dtype=float).reshape(n, -1)
-        self.q = np.empty_like(guesses)
+        # per block of CHUNK samples: joint placements R, p, solved-coordinate columns W, C_s^-1, C_theta (kept
+        # per block: one array for all samples, allocated up front, makes every temporary fault in fresh pages)
+        self.blocks, solutions = [], []
         for start in range(0, n, CHUNK):
             block = slice(start, min(start + CHUNK, n))
-            self.q[block], st = self._assemble(block, guesses[block], tol, max_iterations)
-            self.R[block], self.p[block], self.W[block] = st["R"], st["p"], st["W"]
+            q, st = self._assemble(block, guesses[block], tol, max_iterations)
             solver = self._solver(st["Cs"], start)     # the per-sample path's regularity check, always
-            if jacobian:
-                self.solver[block] = solver
-                self.C_theta[block] = self._parameter_rows(st)
+            self.blocks.append({"R": st["R"], "p": st["p"], "W": st["W"], "solver": solver,
+                                "C_theta": self._parameter_rows(st) if jacobian else None})
+            solutions.append(q)
+        self.q = np.concatenate(solutions) if solutions else guesses
         rows = list(self.q.copy())     # handed out as warm starts: never written to again
         warm_starts.update(zip(range(n), rows))
+
+    def _take(self, key: str, samples: np.ndarray, joint=None) -> np.ndarray:
+        """The per-sample array `key` at the samples (and one joint of it), gathered from the blocks."""
+        b = samples // CHUNK
+        index = (slice(None),) if joint is None else (slice(None), joint)
+        if len(b) and (b == b[0]).all():
+            return self.blocks[b[0]][key][(samples - b[0] * CHUNK,) + index[1:]]
+        first = self.blocks[0][key][(slice(0, 1),) + index[1:]]
+        out = np.empty((len(samples),) + first.shape[1:])
+        for i in np.unique(b):
+            sel = b == i
+            out[sel] = self.blocks[i][key][(samples[sel] - i * CHUNK,) + index[1:]]
+        return out
 
     # ---- assembly --------------------------------------------------------------------------
     def _state(self, q: np.ndarray) -> dict:
@@ -124,6 +134,8 @@ class ClosedChainBatch:
             if not moving.any() or it == max_iterations:
                 break
             keep = moving[idx]
+            if keep.all():       # no copies while every sample still moves
+                keep = slice(None)
             A, r, mu = sub["Cs"][keep], sub["c"][keep], cost[keep]
             normal = np.swapaxes(A, 1, 2) @ A
             normal[:, np.arange(ns), np.arange(ns)] += mu[:, None]
@@ -182,12 +194,17 @@ class ClosedChainBatch:
     def _parameter_rows(self, st: dict) -> np.ndarray:
         """C_theta (n, m, len(ccols)): the closure rows' derivative w.r.t. the free parameters, joints held."""
         n, nc = len(st["c"]), len(self.ccols)
-        out = np.empty((n, self.loops.n_rows, nc))
         G = self.twists.twists(st["R"], st["p"]) if len(self.twists.active) else None
+        pieces = []
         for g, pairs, frames in zip(self.groups, self.group_pairs, self.group_frames):
             sides = [(pk, self.positions[pa], G[:, pa]) if G is not None and len(pk) else (None, None, None)
                      for pk, pa in pairs]
-            out[:, g.rows] = parameter_rows(g, st["R"], st["p"], sides, frames, nc)
+            pieces.append((g, parameter_rows(g, st["R"], st["p"], sides, frames, nc)))
+        if len(pieces) == 1 and pieces[0][0].in_order:
+            return pieces[0][1]
+        out = np.empty((n, self.loops.n_rows, nc))      # allocated last (see closure_state)
+        for g, rows in pieces:
+            out[:, g.rows] = rows
         return out
 
     def frame(self, frame, samples, jacobian: bool = True) -> FrameArrays:
@@ -197,27 +214,30 @@ class ClosedChainBatch:
         fid = frame if isinstance(frame, (int, np.integer)) else ms.robot.frame_id(frame)
         samples = np.asarray(samples, dtype=int)
         f = self.model.frames[fid]
-        Rj, pj = self.R[samples, f.parentJoint], self.p[samples, f.parentJoint]
+        Rj, pj = self._take("R", samples, f.parentJoint), self._take("p", samples, f.parentJoint)
         R0, p0 = Rj @ f.placement.rotation, pj + Rj @ f.placement.translation
         Rb, pb = ms.base.rotation, ms.base.translation
         R, p = Rb @ R0, p0 @ Rb.T + pb
         if not jacobian:
             return FrameArrays(R, p, R0, p0, None, np.eye(6))
         mask = np.isin(self.solved, self.tree.support_v[f.parentJoint]).astype(float)
-        J = np.zeros((len(samples), 6, ms.n_free + 1))       # the last column takes the twists' padding
         _, supports = self.twists.pairs([f.parentJoint])
+        pieces = []
         for start in range(0, len(samples), CHUNK):
             block = slice(start, min(start + CHUNK, len(samples)))
-            s, Jb = samples[block], J[block]
+            s = samples[block]
+            Jb = np.zeros((len(s), 6, ms.n_free + 1))       # the last column takes the twists' padding
             to_local = adjoint_inverse(R0[block], p0[block])
-            Y = (to_local @ (self.W[s] * mask)) @ self.solver[s]
-            Jb[..., self.ccols] = -(Y @ self.C_theta[s])
+            Y = (to_local @ (self._take("W", s) * mask)) @ self._take("solver", s)
+            Jb[..., self.ccols] = -(Y @ self._take("C_theta", s))
             if len(supports):
-                G = self.twists.twists(self.R[s], self.p[s])
+                G = self.twists.twists(self._take("R", s), self._take("p", s))
                 for a in supports:
                     Jb[..., self.twists.columns[a]] += to_local @ G[:, a]
             if ms.has_base_params:
                 Jb[..., :ms.n_free] += to_local @ ms.P_base
+            pieces.append(Jb)
+        J = np.concatenate(pieces) if len(pieces) > 1 else pieces[0] if pieces else np.zeros((0, 6, ms.n_free + 1))
         J = J[..., :ms.n_free]
         if fid in ms.P_frame:
             J += ms.P_frame[fid]

@@ -167,7 +167,8 @@ class TreeArrays:
             else:   # one free-flyer or spherical joint
                 aR, ap, i = aR[..., 0, :, :], ap[..., 0, :], iq[0]     # (3, 3) on the root, else (n, 3, 3)
                 if kind == "free":
-                    R[:, js[0]] = aR @ quaternion_matrices(q[:, i + 3:i + 7])
+                    Rq = quaternion_matrices(q[:, i + 3:i + 7])
+                    R[:, js[0]] = Rq if aR.ndim == 2 and not (aR - self.identity).any() else aR @ Rq
                     p[:, js[0]] = ap + np.einsum("...ij,nj->ni", aR, q[:, i:i + 3])
                 else:
                     R[:, js[0]], p[:, js[0]] = aR @ quaternion_matrices(q[:, i:i + 4]), ap

@@ -57,6 +57,7 @@ class TreeTwists:
                     self.offset_rows.append(row)
                     self.offset_owner.append(a)
         self.offset_v = np.array(self.offset_v, dtype=int)
+        self.placed = np.flatnonzero(np.any(self.blocks != 0.0, axis=(1, 2)))   # active through a placement
         self.supports = {j: [a for a, i in enumerate(self.active) if int(i) in tree.supports[j]] for j in range(nj)}
 
     @property
@@ -68,10 +69,11 @@ class TreeTwists:
         """(n, a, 6, c): world twist of each active joint per own parameter column, at the world placements
         R (n, njoints, 3, 3), p (n, njoints, 3) of a sample stack, every joint held."""
         n = len(R)
-        aR, ap = self.tree.before_motion(R, p, self.active)
-        G = np.broadcast_to(adjoint(aR, ap) @ self.blocks, (n, len(self.active)) + self.blocks.shape[1:])
+        G = np.zeros((n, len(self.active)) + self.blocks.shape[1:])
+        if len(self.placed):       # placement parameters: Ad(oMi[parent] jointPlacement) times their block
+            aR, ap = self.tree.before_motion(R, p, self.active[self.placed])
+            G[:, self.placed] = adjoint(aR, ap) @ self.blocks[self.placed]
         if len(self.offset_v):      # an offset moves its joint along the joint's motion column
-            G = G.copy()
             cols = self.tree.motion_columns(R, p, self.offset_v)            # (n, 6, n_offsets)
             for k, a in enumerate(self.offset_owner):
                 G[:, a] += cols[:, :, k, None] * self.offset_rows[k]
