@@ -87,12 +87,16 @@ class TreeArrays:
         self.placement_R = np.array([model.jointPlacements[j].rotation for j in range(self.njoints)])
         self.placement_p = np.array([model.jointPlacements[j].translation for j in range(self.njoints)])
         self.axis = np.zeros((self.njoints, 3))          # revolute: rotation axis, prismatic: direction (joint frame)
+        neutral = pin.neutral(model)
         for j in range(1, self.njoints):
             name = model.joints[j].shortname()
             if name[-1] in "XYZ" and self.kinds[j] != "free":
                 self.axis[j, "XYZ".index(name[-1])] = 1.0
-            elif "Unaligned" in name:
-                self.axis[j] = model.joints[j].extract().axis
+            elif "Unaligned" in name:      # the joint's own motion subspace (constant for these kinds)
+                joint_data = model.joints[j].createData()
+                model.joints[j].calc(joint_data, neutral)
+                S = np.asarray(joint_data.S).reshape(6)
+                self.axis[j] = S[:3] if self.kinds[j] == "prismatic" else S[3:]
         self.axis_skew = skew(self.axis)
         self.identity = np.eye(3)
         self.unrotated = np.array([np.array_equal(model.jointPlacements[j].rotation, np.eye(3))
