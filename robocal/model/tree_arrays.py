@@ -116,6 +116,13 @@ class TreeArrays:
                 self.v_owner[iv], self.v_dof[iv] = j, (k - 3 if kind == "free" and k >= 3 else k)
                 self.v_kind[iv] = {"prismatic": 0, "revolute": 1, "continuous": 1}.get(
                     kind, 2 if kind == "free" and k < 3 else 3)
+        # motion columns: the direction of each coordinate is column `v_along` of its joint's rotation (for the
+        # one-dof kinds along a coordinate axis, and every free-flyer or spherical coordinate)
+        one_dof = self.v_kind <= 1
+        self.v_aligned = ~one_dof | (np.abs(self.axis[self.v_owner]).sum(axis=1) == 1.0) & (
+            self.axis[self.v_owner].max(axis=1) == 1.0)
+        self.v_along = np.where(one_dof, np.argmax(self.axis[self.v_owner], axis=1), self.v_dof)
+        self.v_turning = (self.v_kind == 1) | (self.v_kind == 3)
         self.axis_skew2 = self.axis_skew @ self.axis_skew
         # supports[j]: the joints from the root to j; support_v[j]: their velocity indices
         self.supports = [set(int(i) for i in model.supports[j]) for j in range(self.njoints)]
@@ -192,25 +199,19 @@ class TreeArrays:
 
     def motion_columns(self, R: np.ndarray, p: np.ndarray, columns: np.ndarray) -> np.ndarray:
         """(n, 6, len(columns)) WORLD twists [v; w] of the velocity coordinates `columns` (each joint's motion
-        subspace carried by its world placement Ad(oMi) S)."""
+        subspace carried by its world placement Ad(oMi) S): a direction d in the world (a column of the joint's
+        rotation for the kinds along a coordinate axis) gives [d; 0] for a translation and [p x d; d] for a
+        rotation about the joint's origin p."""
         columns = np.asarray(columns, dtype=int)
-        out = np.zeros((len(R), 6, len(columns)))
-        j, k = self.v_owner[columns], self.v_dof[columns]
-        kinds = self.v_kind[columns]
-        prismatic = np.flatnonzero(kinds == 0)
-        out[:, :3, prismatic] = np.einsum("nkij,kj->nik", R[:, j[prismatic]], self.axis[j[prismatic]])
-        linear = np.flatnonzero(kinds == 2)        # translation coordinates of a free-flyer
-        # advanced indices split by a slice: the indexed axis comes first, (k, n, 3)
-        out[:, :3, linear] = R[:, j[linear], :, k[linear]].transpose(1, 2, 0)
-        turning = np.flatnonzero(kinds == 1)
-        turning_free = np.flatnonzero(kinds == 3)  # angular coordinates of free-flyer and spherical joints
-        w = np.concatenate([np.einsum("nkij,kj->nki", R[:, j[turning]], self.axis[j[turning]]),
-                            R[:, j[turning_free], :, k[turning_free]].transpose(1, 0, 2)], axis=1)
-        cols = np.concatenate([turning, turning_free])
-        if len(cols):
-            out[:, 3:, cols] = w.transpose(0, 2, 1)
-            out[:, :3, cols] = cross(p[:, j[cols]], w).transpose(0, 2, 1)
-        return out
+        j, aligned, turning = self.v_owner[columns], self.v_aligned[columns], self.v_turning[columns]
+        d = np.swapaxes(R[:, j, :, self.v_along[columns]], 0, 1)   # indices split by a slice come first: swap
+        if not aligned.all():
+            other = np.flatnonzero(~aligned)
+            d[:, other] = np.einsum("nkij,kj->nki", R[:, j[other]], self.axis[j[other]])
+        out = np.empty((len(R), len(columns), 6))
+        out[:, :, :3] = np.where(turning[:, None], cross(p[:, j], d), d)
+        out[:, :, 3:] = d * turning[:, None]
+        return np.swapaxes(out, 1, 2)
 
     def integrate(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
         """q (+) v for q (n, nq), v (n, nv), as pin.integrate sample by sample (to rounding)."""
