@@ -158,6 +158,14 @@ def test_unreachable_readings_raise_an_assembly_error_naming_the_sample():
         problem.evaluate()
 
 
+def test_samples_no_residual_looks_at_are_not_assembled():
+    """As on the per-sample path: an unreachable sample that no term uses does not stop the evaluation."""
+    problem = stewart_problem(n=4)
+    problem.values = np.vstack([problem.values, problem.values[:1] + [2.0, 0, 0, 0, 0, 0]])
+    ev = problem.evaluate()
+    assert 4 not in problem.warm_starts and np.isfinite(ev.J).all()
+
+
 def test_joint_relations_keep_the_per_sample_path():
     robot = robocal.load_urdf(URDF / "floating_nut_hexapod.urdf")
     assert robot.loops.relations

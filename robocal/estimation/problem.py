@@ -127,7 +127,8 @@ class Problem:
             if supports_batch(ms):
                 batch = BatchKinematics(ms, self.sample_constants(ms), self.values, self.directions)
             elif supports_closed_batch(ms):     # closed chains: every sample assembled and differentiated at once
-                batch = ClosedChainBatch(ms, self.values, self.warm_starts, jacobian)
+                used = np.concatenate([res.samples for res in self.residuals if res.batched])
+                batch = ClosedChainBatch(ms, self.values, self.warm_starts, jacobian, used)
         states = None
         gid = 0
         for res, block in zip(self.residuals, self.blocks):

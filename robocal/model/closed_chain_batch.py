@@ -52,13 +52,17 @@ class ClosedChainBatch:
     the start of each assembly and updated with the solutions (the problem's dict, shared with the
     per-sample path); jacobian: whether frames will be asked for their parameter Jacobians."""
 
-    def __init__(self, ms, values: np.ndarray, warm_starts: dict, jacobian: bool = True, tol: float = 1e-12,
-                 max_iterations: int = 50):
+    def __init__(self, ms, values: np.ndarray, warm_starts: dict, jacobian: bool = True, samples=None,
+                 tol: float = 1e-12, max_iterations: int = 50):
         self.ms, self.model, self.loops = ms, ms.model, ms.loops
         self.tree = TreeArrays(ms.model)
         self.solved = self.loops.solved_v
-        self.n = n = len(values)
-        self.actuated = (values + ms.offsets)[:, ms.actuated_order]
+        # the samples assembled (all by default): as the per-sample path, only those a residual looks at
+        self.samples = np.arange(len(values)) if samples is None else np.unique(np.asarray(samples, dtype=int))
+        self.position = np.full(len(values), -1)
+        self.position[self.samples] = np.arange(len(self.samples))
+        self.n = n = len(self.samples)
+        self.actuated = (values[self.samples] + ms.offsets)[:, ms.actuated_order]
         self.groups = closure_groups(self.model, self.loops, self.tree)
         self.twists = TreeTwists(ms, self.tree)
         self.group_pairs = [[self.twists.pairs(js) for js in g.joints] for g in self.groups]
@@ -72,20 +76,20 @@ class ClosedChainBatch:
         self.positions = np.searchsorted(self.ccols, self.twists.columns)     # padding (n_free) -> len(ccols)
         self.group_frames = [[self._frame_columns(fids) for fids in g.frames] for g in self.groups]
         neutral = pin.neutral(self.model)
-        guesses = np.array([warm_starts.get(i, neutral) for i in range(n)], dtype=float).reshape(n, -1)
+        guesses = np.array([warm_starts.get(i, neutral) for i in self.samples], dtype=float).reshape(n, -1)
         # per block of CHUNK samples: joint placements R, p, solved-coordinate columns W, C_s^-1, C_theta (kept
         # per block: one array for all samples, allocated up front, makes every temporary fault in fresh pages)
         self.blocks, solutions = [], []
         for start in range(0, n, CHUNK):
             block = slice(start, min(start + CHUNK, n))
             q, st = self._assemble(block, guesses[block], tol, max_iterations)
-            solver = self._solver(st["Cs"], start)     # the per-sample path's regularity check, always
+            solver = self._solver(st["Cs"], self.samples[block])     # the per-sample path's check, always
             self.blocks.append({"R": st["R"], "p": st["p"], "W": st["W"], "solver": solver,
                                 "C_theta": self._parameter_rows(st) if jacobian else None})
             solutions.append(q)
         self.q = np.concatenate(solutions) if solutions else guesses
         rows = list(self.q.copy())     # handed out as warm starts: never written to again
-        warm_starts.update(zip(range(n), rows))
+        warm_starts.update(zip(self.samples.tolist(), rows))
 
     def _take(self, key: str, samples: np.ndarray, joint=None) -> np.ndarray:
         """The per-sample array `key` at the samples (and one joint of it), gathered from the blocks."""
@@ -150,15 +154,15 @@ class ClosedChainBatch:
             data = self.model.createData()
             for i in np.flatnonzero(failed):
                 q[i] = assemble(self.ms.robot, self.model, actuated[i], q_guess=guesses[i].copy(),
-                                sample=block.start + i, data=data, loops=self.loops, tol=tol)
+                                sample=int(self.samples[block][i]), data=data, loops=self.loops, tol=tol)
             idx = np.flatnonzero(failed)
             state = _scatter(state, self._state(q[idx]), idx)
         return q, state
 
-    def _solver(self, Cs: np.ndarray, first: int) -> np.ndarray:
+    def _solver(self, Cs: np.ndarray, labels: np.ndarray) -> np.ndarray:
         """(n, n_solved, m): C_s^-1, or (C_s^T C_s)^-1 C_s^T with more rows than unknowns (lstsq's solution);
         raises AssemblyError where C_s is singular, as `assemble` does (exact check on the samples whose
-        norm bound on s_min / s_max falls below the threshold; `first`: index of the block's first sample)."""
+        norm bound on s_min / s_max falls below the threshold; `labels`: the block's sample indices)."""
         square = Cs.shape[1] == Cs.shape[2]
         A = Cs if square else np.swapaxes(Cs, 1, 2) @ Cs
         try:
@@ -170,7 +174,7 @@ class ClosedChainBatch:
         for i in np.flatnonzero(~(ratio_bound >= SINGULAR_RCOND)):
             s = np.linalg.svd(Cs[i], compute_uv=False)
             if s[-1] < SINGULAR_RCOND * max(s[0], 1e-300) or inv is None:
-                raise AssemblyError(f"sample {first + i}: closed-chain assembly reached a singular configuration "
+                raise AssemblyError(f"sample {labels[i]}: closed-chain assembly reached a singular configuration "
                                     f"(condition number {s[0] / max(s[-1], 1e-300):.3g}); the passive joints are "
                                     "not determined by these readings")
         return inv if square else inv @ np.swapaxes(Cs, 1, 2)
@@ -212,7 +216,9 @@ class ClosedChainBatch:
         J = J_tree + J_solved dq_s/dtheta, dq_s/dtheta = -C_s^-1 C_theta (implicit-function theorem)."""
         ms = self.ms
         fid = frame if isinstance(frame, (int, np.integer)) else ms.robot.frame_id(frame)
-        samples = np.asarray(samples, dtype=int)
+        samples = self.position[np.asarray(samples, dtype=int)]
+        if (samples < 0).any():
+            raise ValueError("ClosedChainBatch.frame: a sample that was not assembled")
         f = self.model.frames[fid]
         Rj, pj = self._take("R", samples, f.parentJoint), self._take("p", samples, f.parentJoint)
         R0, p0 = Rj @ f.placement.rotation, pj + Rj @ f.placement.translation
