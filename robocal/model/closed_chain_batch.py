@@ -226,7 +226,7 @@ class ClosedChainBatch:
         R, p = Rb @ R0, p0 @ Rb.T + pb
         if not jacobian:
             return FrameArrays(R, p, R0, p0, None, np.eye(6))
-        mask = np.isin(self.solved, self.tree.support_v[f.parentJoint]).astype(float)
+        moving = np.flatnonzero(np.isin(self.solved, self.tree.support_v[f.parentJoint]))   # solved coordinates
         _, supports = self.twists.pairs([f.parentJoint])
         pieces = []
         for start in range(0, len(samples), CHUNK):
@@ -234,8 +234,9 @@ class ClosedChainBatch:
             s = samples[block]
             Jb = np.zeros((len(s), 6, ms.n_free + 1))       # the last column takes the twists' padding
             to_local = adjoint_inverse(R0[block], p0[block])
-            Y = (to_local @ (self._take("W", s) * mask)) @ self._take("solver", s)
-            Jb[..., self.ccols] = -(Y @ self._take("C_theta", s))
+            if len(moving):     # the frame's solved joints' columns times their rows of C_s^-1
+                Y = (to_local @ self._take("W", s)[:, :, moving]) @ self._take("solver", s)[:, moving]
+                Jb[..., self.ccols] = -(Y @ self._take("C_theta", s))
             if len(supports):
                 G = self.twists.twists(self._take("R", s), self._take("p", s))
                 for a in supports:
