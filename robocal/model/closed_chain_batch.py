@@ -76,7 +76,7 @@ class ClosedChainBatch:
         self.positions = np.searchsorted(self.ccols, self.twists.columns)     # padding (n_free) -> len(ccols)
         self.group_frames = [[self._frame_columns(fids) for fids in g.frames] for g in self.groups]
         neutral = pin.neutral(self.model)
-        guesses = np.array([warm_starts.get(i, neutral) for i in self.samples], dtype=float).reshape(n, -1)
+        guesses = np.array([warm_starts.get(i, neutral) for i in self.samples], dtype=float).reshape(n, self.model.nq)
         # per block of CHUNK samples: joint placements R, p, solved-coordinate columns W, C_s^-1, C_theta (kept
         # per block: one array for all samples, allocated up front, makes every temporary fault in fresh pages)
         self.blocks, solutions = [], []

@@ -2,8 +2,8 @@
 
 Closed-chain assembly needs, at every Newton step of every sample, the placements of the loop anchors and
 how they move with the passive joints. Calling Pinocchio per sample costs a few microseconds per call from
-Python (constraint models: ~20 us per sample and step for a Stewart platform, see benchmarks/closed_chain.py),
-so the tree is walked here once for all samples, joint by joint, with whole-array numpy:
+Python (constraint models: ~24 us per sample and evaluation for a Stewart platform, see docs/speed.md), so
+the tree is walked here once for all samples with whole-array numpy, the joints of one depth and kind together:
 
     oMi[j] = oMi[parent(j)] jointPlacement(j) M_j(q_j)
 
@@ -18,7 +18,6 @@ import pinocchio as pin
 
 from robocal.model.lie_arrays import skew
 
-LOCAL = pin.ReferenceFrame.LOCAL
 KINDS = {**{f"JointModelR{a}": "revolute" for a in "XYZ"}, "JointModelRevoluteUnaligned": "revolute",
          **{f"JointModelRUB{a}": "continuous" for a in "XYZ"}, "JointModelRevoluteUnboundedUnaligned": "continuous",
          **{f"JointModelP{a}": "prismatic" for a in "XYZ"}, "JointModelPrismaticUnaligned": "prismatic",
