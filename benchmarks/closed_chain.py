@@ -1,6 +1,6 @@
 """Closed chains: microseconds per sample per residual-and-Jacobian pass, Stewart 6-6 through its URDF loop constraints.
 
-Run:  OMP_NUM_THREADS=1 python benchmarks/closed_chain.py [--samples 1000] [--repeats 3]
+Run:  OMP_NUM_THREADS=1 python benchmarks/closed_chain.py [--samples 1000] [--repeats 3] [--profile]
 
 Prints one table, every figure measured in this process, one thread:
   (a) the per-sample path (robocal.model.kinematics.SampleState: damped Newton assembly and implicit-function
@@ -14,11 +14,14 @@ Passes: "step" = Problem.evaluate() after a parameter step of 10 um per paramete
 (best of --repeats); "calibrate" = the mean over every evaluation of one calibrate() run from the nominal model
 (42 parameters, true machine N(0, 1 mm), noise-free poses), the first, cold pass included. Both paths fit the
 same data; the table gives the largest relative difference of their residuals and Jacobians.
+--profile adds where one step pass of (b) spends its time (cProfile, cumulative, us per sample).
 """
 from __future__ import annotations
 
 import argparse
+import cProfile
 import os
+import pstats
 import time
 from pathlib import Path
 
@@ -128,6 +131,33 @@ def pinocchio_floor(robot, q: np.ndarray, repeats: int) -> tuple[float, float]:
     return best, worst
 
 
+PHASES = {("closed_chain_batch.py", "__init__"): "whole batched assembly and sensitivities",
+          ("closure_groups.py", "closure_state"): "  closure evaluations (FK, rows, C_s)",
+          ("closed_chain_batch.py", "_assemble"): "  assembly: evaluations + damped Newton steps",
+          ("closed_chain_batch.py", "_solver"): "  C_s^-1 and the regularity check",
+          ("closed_chain_batch.py", "_parameter_rows"): "  C_theta (closure rows per parameter)",
+          ("closed_chain_batch.py", "frame"): "frame poses and Jacobians",
+          ("kinematics.py", "__init__"): "ModelState (the calibrated model copy)",
+          ("problem.py", "evaluate"): "Problem.evaluate, all"}
+
+
+def profile_step(robot, n: int) -> list[tuple[str, float]]:
+    """Cumulative time (us per sample) of the main phases of one batched step pass, from cProfile."""
+    problem, _ = stewart_problem(robot, n)
+    x0 = problem.params.free_values()
+    problem.evaluate()
+    problem.params.set_free_values(x0 + np.random.default_rng(1).normal(0.0, 1e-5, len(x0)))
+    profiler = cProfile.Profile()
+    profiler.runcall(problem.evaluate)
+    stats = pstats.Stats(profiler).stats
+    found = {}
+    for (path, _, name), (_, _, _, cumulative, _) in stats.items():
+        key = (Path(path).name, name)
+        if key in PHASES:
+            found[PHASES[key]] = found.get(PHASES[key], 0.0) + cumulative
+    return [(label, found.get(label, 0.0) / n * 1e6) for label in PHASES.values()]
+
+
 def relative(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.abs(a - b).max() / np.abs(b).max())
 
@@ -136,6 +166,7 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--samples", type=int, default=1000)
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--profile", action="store_true", help="where one batched step pass spends its time")
     args = parser.parse_args()
     n = args.samples
     robot = robocal.load_urdf(URDF)
@@ -162,6 +193,10 @@ def main():
           f"(b) / floor: step {rows[1][1] / (t_floor * 1e6):.1f}x")
     print(f"(b) vs (a), step pass: residuals {relative(b.r, a.r):.1e}, Jacobian {relative(b.J, a.J):.1e} relative; "
           f"floor rows vs robocal's: {agreement:.1e}")
+    if args.profile:
+        print("\n(b) one step pass under cProfile (its overhead included), cumulative us/sample:")
+        for label, us in profile_step(robot, n):
+            print(f"  {label:<48}{us:>8.1f}")
 
 
 if __name__ == "__main__":
