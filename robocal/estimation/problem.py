@@ -69,6 +69,7 @@ class Problem:
         params.reorder(lambda p: KIND_ORDER.get(p.kind, 2))
         self.blocks = self.layout()
         self.warm_starts: dict = {}
+        self.closed_chain_cache: dict = {}   # closed chains: what stays between passes (robocal.model.closed_chain_batch)
         self._constants: SampleConstants | None = None
 
     def layout(self) -> list[Block]:
@@ -128,7 +129,7 @@ class Problem:
                 batch = BatchKinematics(ms, self.sample_constants(ms), self.values, self.directions)
             elif supports_closed_batch(ms):     # closed chains: every sample assembled and differentiated at once
                 used = np.concatenate([res.samples for res in self.residuals if res.batched])
-                batch = ClosedChainBatch(ms, self.values, self.warm_starts, jacobian, used)
+                batch = ClosedChainBatch(ms, self.values, self.warm_starts, jacobian, used, self.closed_chain_cache)
         states = None
         gid = 0
         for res, block in zip(self.residuals, self.blocks):

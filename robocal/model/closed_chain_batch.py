@@ -25,7 +25,7 @@ import pinocchio as pin
 
 from robocal.errors import AssemblyError
 from robocal.model.batch_kinematics import FrameArrays
-from robocal.model.closure_groups import closure_groups, closure_state, parameter_rows
+from robocal.model.closure_groups import closure_groups, closure_state, parameter_rows, with_placements
 from robocal.model.lie_arrays import adjoint_inverse
 from robocal.model.loops import assemble
 from robocal.model.tree_arrays import TreeArrays, supports_tree_arrays
@@ -50,12 +50,19 @@ class ClosedChainBatch:
 
     values: (N, n_read) readings in `ms.joint_names` order; warm_starts: sample index -> q (nq,), read for
     the start of each assembly and updated with the solutions (the problem's dict, shared with the
-    per-sample path); jacobian: whether frames will be asked for their parameter Jacobians."""
+    per-sample path); jacobian: whether frames will be asked for their parameter Jacobians; samples: the
+    samples to assemble (default all); cache: a dict the caller keeps between passes of one problem."""
 
     def __init__(self, ms, values: np.ndarray, warm_starts: dict, jacobian: bool = True, samples=None,
-                 tol: float = 1e-12, max_iterations: int = 50):
+                 cache: dict | None = None, tol: float = 1e-12, max_iterations: int = 50):
         self.ms, self.model, self.loops = ms, ms.model, ms.loops
-        self.tree = TreeArrays(ms.model)
+        cache = {} if cache is None else cache
+        if cache.get("robot") is not ms.robot or cache.get("loops") is not ms.loops:
+            # what does not change between passes of one problem: the tree's and the closures' structure
+            tree = TreeArrays(ms.model)
+            cache.update(robot=ms.robot, loops=ms.loops, tree=tree,
+                         groups=closure_groups(ms.model, ms.loops, tree))
+        self.tree = cache["tree"].at_placements(ms.model)
         self.solved = self.loops.solved_v
         # the samples assembled (all by default): as the per-sample path, only those a residual looks at
         self.samples = np.arange(len(values)) if samples is None else np.unique(np.asarray(samples, dtype=int))
@@ -63,7 +70,7 @@ class ClosedChainBatch:
         self.position[self.samples] = np.arange(len(self.samples))
         self.n = n = len(self.samples)
         self.actuated = (values[self.samples] + ms.offsets)[:, ms.actuated_order]
-        self.groups = closure_groups(self.model, self.loops, self.tree)
+        self.groups = with_placements(cache["groups"], self.model)
         self.twists = TreeTwists(ms, self.tree)
         self.group_pairs = [[self.twists.pairs(js) for js in g.joints] for g in self.groups]
         # the few columns the closures' parameter rows can hold: tree joints' placements and offsets

@@ -8,7 +8,7 @@ one set of array operations whatever the number of its closures.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -35,6 +35,14 @@ class ClosureGroup:
     def in_order(self) -> bool:
         """Whether the group's rows are all the rows, in order."""
         return bool(np.array_equal(self.rows, np.arange(len(self.rows))))
+
+
+def with_placements(groups: list[ClosureGroup], model) -> list[ClosureGroup]:
+    """The groups with their anchors' placements read from `model` (same frames, another parameter vector)."""
+    frames = model.frames
+    return [replace(g, placements=tuple((np.array([frames[f].placement.rotation for f in side]),
+                                         np.array([frames[f].placement.translation for f in side]))
+                                        for side in g.frames)) for g in groups]
 
 
 def closure_groups(model, loops, tree: TreeArrays) -> list[ClosureGroup]:

@@ -13,6 +13,8 @@ Other joint kinds are not handled (`supports_tree_arrays`).
 """
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 import pinocchio as pin
 
@@ -83,8 +85,7 @@ class TreeArrays:
         self.idx_q = [model.joints[j].idx_q for j in range(self.njoints)]
         self.idx_v = [model.joints[j].idx_v for j in range(self.njoints)]
         self.nv_j = [model.joints[j].nv for j in range(self.njoints)]
-        self.placement_R = np.array([model.jointPlacements[j].rotation for j in range(self.njoints)])
-        self.placement_p = np.array([model.jointPlacements[j].translation for j in range(self.njoints)])
+        self._read_placements(model)
         self.axis = np.zeros((self.njoints, 3))          # revolute: rotation axis, prismatic: direction (joint frame)
         neutral = pin.neutral(model)
         for j in range(1, self.njoints):
@@ -98,8 +99,6 @@ class TreeArrays:
                 self.axis[j] = S[:3] if self.kinds[j] == "prismatic" else S[3:]
         self.axis_skew = skew(self.axis)
         self.identity = np.eye(3)
-        self.unrotated = np.array([np.array_equal(model.jointPlacements[j].rotation, np.eye(3))
-                                   for j in range(self.njoints)])
         self.parent_array, self.q_array = np.array(self.parents), np.array(self.idx_q)
         self.levels = self._levels()
         plain = [j for j in range(1, self.njoints) if self.kinds[j] in ("revolute", "prismatic")]
@@ -129,6 +128,19 @@ class TreeArrays:
         for j in range(self.njoints):
             cols = [np.arange(self.idx_v[i], self.idx_v[i] + self.nv_j[i]) for i in list(model.supports[j])[1:]]
             self.support_v.append(np.concatenate(cols).astype(int) if cols else np.zeros(0, dtype=int))
+
+    def _read_placements(self, model: pin.Model) -> None:
+        self.placement_R = np.array([model.jointPlacements[j].rotation for j in range(self.njoints)])
+        self.placement_p = np.array([model.jointPlacements[j].translation for j in range(self.njoints)])
+        self.unrotated = np.all(self.placement_R == np.eye(3), axis=(1, 2))
+
+    def at_placements(self, model: pin.Model) -> "TreeArrays":
+        """This tree with the joint placements of `model` (same joints, e.g. another parameter vector): the
+        structure is kept, only the placements are read again."""
+        out = copy.copy(self)
+        out.model = model
+        out._read_placements(model)
+        return out
 
     def _levels(self) -> list[tuple[str, int, np.ndarray]]:
         """The joints grouped by depth, kind and axis (0, 1, 2 along x, y, z; -1 other), root first: one set
