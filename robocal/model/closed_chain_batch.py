@@ -103,7 +103,10 @@ class ClosedChainBatch:
         b = samples // CHUNK
         index = (slice(None),) if joint is None else (slice(None), joint)
         if len(b) and (b == b[0]).all():
-            return self.blocks[b[0]][key][(samples - b[0] * CHUNK,) + index[1:]]
+            local = samples - b[0] * CHUNK
+            if local[-1] - local[0] == len(local) - 1 and (np.diff(local) == 1).all():
+                local = slice(local[0], local[-1] + 1)       # a run of samples: a view, no copy
+            return self.blocks[b[0]][key][(local,) + index[1:]]
         first = self.blocks[0][key][(slice(0, 1),) + index[1:]]
         out = np.empty((len(samples),) + first.shape[1:])
         for i in np.unique(b):
