@@ -242,7 +242,7 @@ class ClosedChainBatch:
         for start in range(0, len(samples), CHUNK):
             block = slice(start, min(start + CHUNK, len(samples)))
             s = samples[block]
-            Jb = np.zeros((len(s), 6, ms.n_free + 1))       # the last column takes the twists' padding
+            Jb = np.zeros((len(s), 6, ms.n_free))
             to_local = adjoint_inverse(R0[block], p0[block])
             if len(moving):     # the frame's solved joints' columns times their rows of C_s^-1
                 Y = (to_local @ self._take("W", s)[:, :, moving]) @ self._take("solver", s)[:, moving]
@@ -250,12 +250,12 @@ class ClosedChainBatch:
             if len(supports):
                 G = self.twists.twists(self._take("R", s), self._take("p", s))
                 for a in supports:
-                    Jb[..., self.twists.columns[a]] += to_local @ G[:, a]
+                    real = self.twists.columns[a] < ms.n_free        # padding columns carry zeros: dropped
+                    Jb[..., self.twists.columns[a][real]] += (to_local @ G[:, a])[..., real]
             if ms.has_base_params:
-                Jb[..., :ms.n_free] += to_local @ ms.P_base
+                Jb += to_local @ ms.P_base
             pieces.append(Jb)
-        J = np.concatenate(pieces) if len(pieces) > 1 else pieces[0] if pieces else np.zeros((0, 6, ms.n_free + 1))
-        J = J[..., :ms.n_free]
+        J = np.concatenate(pieces) if len(pieces) > 1 else pieces[0] if pieces else np.zeros((0, 6, ms.n_free))
         if fid in ms.P_frame:
             J += ms.P_frame[fid]
         return FrameArrays(R, p, R0, p0, J, np.eye(6))

@@ -154,12 +154,13 @@ def parameter_rows(g: ClosureGroup, R: np.ndarray, p: np.ndarray, sides, frames,
     else:
         ck, D1, D2 = group_rows(g, poses)
     r = 3 if point else ck.shape[1]
-    out = np.zeros((n, k, r, nc + 1))       # the last column takes the padding
+    out = np.zeros((n, k, r, nc))
 
     def scatter(anchors, columns, values):
         for i, (kk, cc) in enumerate(zip(anchors, columns)):
+            real = cc < nc                   # padding columns carry zeros: dropped
             view = out[:, kk]
-            view[..., cc] += values[:, i]
+            view[..., cc[real]] += values[:, i][..., real]
 
     for side, (pk, cols, U) in enumerate(sides):
         if pk is None:
@@ -183,4 +184,4 @@ def parameter_rows(g: ClosureGroup, R: np.ndarray, p: np.ndarray, sides, frames,
         else:
             values = (D1, D2)[side].reshape(n, k, r, 6) @ F
         scatter(range(k), cols, values)
-    return out[..., :nc].reshape(n, k * r, nc)
+    return out.reshape(n, k * r, nc)
