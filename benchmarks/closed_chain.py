@@ -11,9 +11,10 @@ Prints one table, every figure measured in this process, one thread:
       per sample from Python: one evaluation of the closure rows and their Jacobian. A per-sample Newton
       assembly needs at least two of these a pass (three after a typical step), before any parameter Jacobian.
 Passes: "step" = Problem.evaluate() after a parameter step of 10 um per parameter from assembled warm starts
-(best of --repeats); "calibrate" = the mean over every evaluation of one calibrate() run from the nominal model
-(42 parameters, true machine N(0, 1 mm), noise-free poses), the first, cold pass included. Both paths fit the
-same data; the table gives the largest relative difference of their residuals and Jacobians.
+(best of --repeats, wall clock and CPU time of this process); "calibrate" = the mean over every
+residual-and-Jacobian evaluation of one calibrate() run from the nominal model (42 parameters, true machine
+N(0, 1 mm), noise-free poses), the first, cold pass included. Both paths fit the same data; the table gives the
+largest relative difference of their residuals and Jacobians.
 --profile adds where one step pass of (b) spends its time (cProfile, cumulative, us per sample).
 """
 from __future__ import annotations
@@ -62,18 +63,20 @@ def stewart_problem(robot, n: int, seed: int = 0) -> tuple[Problem, np.ndarray]:
 
 
 def step_pass(problem: Problem, repeats: int):
-    """Best time (s) of Problem.evaluate() after a 10 um step of every parameter, and the last evaluation."""
+    """Best wall and CPU time (s) of Problem.evaluate() after a 10 um step of every parameter, and the last
+    evaluation. CPU time (this process only) leaves out the time other jobs on the shared cores take."""
     x0 = problem.params.free_values()
     problem.evaluate()                              # assembled warm starts at x0
-    rng, times, ev = np.random.default_rng(1), [], None
+    rng, wall, cpu, ev = np.random.default_rng(1), [], [], None
     for _ in range(repeats):
         problem.params.set_free_values(x0)
         problem.evaluate()
         problem.params.set_free_values(x0 + rng.normal(0.0, 1e-5, len(x0)))
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         ev = problem.evaluate()
-        times.append(time.perf_counter() - t0)
-    return min(times), ev
+        wall.append(time.perf_counter() - t0)
+        cpu.append(time.process_time() - c0)
+    return min(wall), min(cpu), ev
 
 
 def calibrate_passes(problem: Problem):
@@ -174,21 +177,22 @@ def main():
     for label, batched in (("(a) per-sample path", False), ("(b) batched path", True)):
         use_batched(batched)
         problem, truth = stewart_problem(robot, n)
-        t_step, evaluations[batched] = step_pass(problem, args.repeats)
+        t_step, cpu_step, evaluations[batched] = step_pass(problem, args.repeats)
         problem, truth = stewart_problem(robot, n)
         t_fit, count, fitted = calibrate_passes(problem)
-        rows.append((label, t_step / n * 1e6, t_fit / n * 1e6, count, np.abs(fitted - truth).max()))
+        rows.append((label, t_step / n * 1e6, cpu_step / n * 1e6, t_fit / n * 1e6, count,
+                     np.abs(fitted - truth).max()))
     use_batched(True)
     q = np.array(list(problem.warm_starts.values()))
     t_floor, agreement = pinocchio_floor(robot, q, args.repeats)
     a, b = evaluations[False], evaluations[True]
     print(f"Closed chain: Stewart 6-6 ({URDF.name}, 6 point closures, 18 rows), 42 parameters, pose residuals, "
           f"{n} samples, pin {pin.__version__}, OMP_NUM_THREADS={os.environ.get('OMP_NUM_THREADS')}")
-    print(f"{'path':<46}{'step pass':>12}{'calibrate pass':>16}{'passes':>8}{'max param error':>17}")
-    print(f"{'':<46}{'us/sample':>12}{'us/sample':>16}{'':>8}{'m':>17}")
-    for label, step, fit, count, err in rows:
-        print(f"{label:<46}{step:>12.1f}{fit:>16.1f}{count:>8d}{err:>17.2e}")
-    print(f"{'(c) floor: Pinocchio constraint models + FK':<46}{t_floor * 1e6:>12.1f}{'(one evaluation)':>16}")
+    print(f"{'path':<46}{'step pass':>12}{'(CPU)':>8}{'calibrate pass':>16}{'passes':>8}{'max param error':>17}")
+    print(f"{'':<46}{'us/sample':>12}{'':>8}{'us/sample':>16}{'':>8}{'m':>17}")
+    for label, step, cpu, fit, count, err in rows:
+        print(f"{label:<46}{step:>12.1f}{cpu:>8.1f}{fit:>16.1f}{count:>8d}{err:>17.2e}")
+    print(f"{'(c) floor: Pinocchio constraint models + FK':<46}{t_floor * 1e6:>12.1f}   (one evaluation)")
     print(f"speed-up (a)/(b): step {rows[0][1] / rows[1][1]:.1f}x, calibrate {rows[0][2] / rows[1][2]:.1f}x; "
           f"(b) / floor: step {rows[1][1] / (t_floor * 1e6):.1f}x")
     print(f"(b) vs (a), step pass: residuals {relative(b.r, a.r):.1e}, Jacobian {relative(b.J, a.J):.1e} relative; "
