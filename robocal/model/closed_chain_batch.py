@@ -34,6 +34,7 @@ from robocal.model.tree_twists import TreeTwists
 CHUNK = 256              # samples per block: work arrays this size stay in cache and in reused memory
 ARMIJO = 1e-4            # damped_newton's sufficient decrease: a full step below it goes to the per-sample solver
 SINGULAR_RCOND = 1e-5    # assemble's default: smallest / largest singular value of C_s at the solution
+NEGLIGIBLE_DAMPING = 1e-20   # |c|^2 below which the damped step is the Newton step to rounding
 
 
 def supports_closed_batch(ms) -> bool:
@@ -151,9 +152,14 @@ class ClosedChainBatch:
             if keep.all():       # no copies while every sample still moves
                 keep = slice(None)
             A, r, mu = sub["Cs"][keep], sub["c"][keep], cost[keep]
-            normal = np.swapaxes(A, 1, 2) @ A
-            normal[:, np.arange(ns), np.arange(ns)] += mu[:, None]
-            step = -np.linalg.solve(normal, np.einsum("nmi,nm->ni", A, r)[:, :, None])[:, :, 0]
+            if A.shape[1] == ns and mu.max() < NEGLIGIBLE_DAMPING:
+                # mu = |c|^2 < 1e-20: the damped step differs from the Newton step -C_s^-1 c by mu / s_min^2 of
+                # itself, ~1e-25 m or rad for a Stewart platform's C_s (s_min ~ 0.1): solve C_s directly
+                step = -np.linalg.solve(A, r[:, :, None])[:, :, 0]
+            else:
+                normal = np.swapaxes(A, 1, 2) @ A
+                normal[:, np.arange(ns), np.arange(ns)] += mu[:, None]
+                step = -np.linalg.solve(normal, np.einsum("nmi,nm->ni", A, r)[:, :, None])[:, :, 0]
             go = idx[keep]
             last_cost[go] = mu
             v = np.zeros((len(go), self.model.nv))
