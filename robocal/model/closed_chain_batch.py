@@ -5,7 +5,8 @@ robocal.model.loops.assemble and differentiates through the closures one sample 
 formulas run on whole arrays over the samples (robocal.model.tree_arrays walks the tree, robocal.model.
 closure_arrays gives the closure rows):
 
-- assembly: every sample takes the damped step of `damped_newton` (mu = |c|^2) from its warm start; a sample
+- assembly: every sample takes the damped step of `damped_newton` (mu = |c|^2) from its warm start (the plain
+  Newton step once mu is below 1e-20, where the two agree to rounding); a sample
   whose full step does not lower |c|^2 enough (where the per-sample solver would start halving), or that has
   not converged in `max_iterations`, is handed to `assemble` itself from the same warm start, so the branch
   reached and the errors raised are those of the per-sample path;
