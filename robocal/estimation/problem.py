@@ -101,8 +101,7 @@ class Problem:
 
         Serial robots (robocal.model.batch_kinematics) and closed chains (robocal.model.closed_chain_batch)
         evaluate the residual types that define `evaluate_batch` for all their terms at once; every other
-        case goes term by term through SampleState. Both
-        write straight into one preallocated Jacobian."""
+        case goes term by term through SampleState. Both write straight into one preallocated Jacobian."""
         self.blocks = self.layout()  # priors may have been switched on or off
         m = self.blocks[-1].rows.stop if self.blocks else 0
         n_free = len(self.params.free_names)
