@@ -190,10 +190,12 @@ class ClosedChainBatch:
         ratio_bound = bound if square else np.sqrt(bound)       # <= s_min / s_max of C_s
         for i in np.flatnonzero(~(ratio_bound >= SINGULAR_RCOND)):
             s = np.linalg.svd(Cs[i], compute_uv=False)
-            if s[-1] < SINGULAR_RCOND * max(s[0], 1e-300) or inv is None:
+            if s[-1] < SINGULAR_RCOND * max(s[0], 1e-300):
                 raise AssemblyError(f"sample {labels[i]}: closed-chain assembly reached a singular configuration "
                                     f"(condition number {s[0] / max(s[-1], 1e-300):.3g}); the passive joints are "
                                     "not determined by these readings")
+        if inv is None:         # the LU broke down on matrices the singular values call regular
+            inv = np.linalg.pinv(A)
         return inv if square else inv @ np.swapaxes(Cs, 1, 2)
 
     # ---- parameter Jacobians ---------------------------------------------------------------
