@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from robocal.model.batch_kinematics import BatchKinematics, SampleConstants, supports_batch
+from robocal.model.closed_chain_batch import ClosedChainBatch, supports_closed_batch
 from robocal.model.kinematics import ModelState
 from robocal.model.parameters import ParameterSet
 from robocal.residuals.base import Residual
@@ -68,6 +69,7 @@ class Problem:
         params.reorder(lambda p: KIND_ORDER.get(p.kind, 2))
         self.blocks = self.layout()
         self.warm_starts: dict = {}
+        self.closed_chain_cache: dict = {}   # closed chains: what stays between passes (robocal.model.closed_chain_batch)
         self._constants: SampleConstants | None = None
 
     def layout(self) -> list[Block]:
@@ -97,9 +99,9 @@ class Problem:
     def evaluate(self, jacobian: bool = True) -> Evaluation:
         """Residuals (and Jacobian) at the parameters' current values.
 
-        Serial robots evaluate the residual types that define `evaluate_batch` for all their terms at once
-        (robocal.model.batch_kinematics); every other case goes term by term through SampleState. Both
-        write straight into one preallocated Jacobian."""
+        Serial robots (robocal.model.batch_kinematics) and closed chains (robocal.model.closed_chain_batch)
+        evaluate the residual types that define `evaluate_batch` for all their terms at once; every other
+        case goes term by term through SampleState. Both write straight into one preallocated Jacobian."""
         self.blocks = self.layout()  # priors may have been switched on or off
         m = self.blocks[-1].rows.stop if self.blocks else 0
         n_free = len(self.params.free_names)
@@ -121,8 +123,12 @@ class Problem:
         col = self.params.column_map()
         n_free = ms.n_free
         batch = None
-        if supports_batch(ms) and any(res.batched for res in self.residuals):
-            batch = BatchKinematics(ms, self.sample_constants(ms), self.values, self.directions)
+        if any(res.batched for res in self.residuals):
+            if supports_batch(ms):
+                batch = BatchKinematics(ms, self.sample_constants(ms), self.values, self.directions)
+            elif supports_closed_batch(ms):     # closed chains: every sample assembled and differentiated at once
+                used = np.concatenate([res.samples for res in self.residuals if res.batched])
+                batch = ClosedChainBatch(ms, self.values, self.warm_starts, jacobian, used, self.closed_chain_cache)
         states = None
         gid = 0
         for res, block in zip(self.residuals, self.blocks):

@@ -179,6 +179,11 @@ class ModelState:
             cols[:] = [e for e in cols if e[0] not in self.driven_reads]
 
     @property
+    def actuated_order(self) -> list[int]:
+        """Closed chains: the index in `joint_names` of each actuated joint, in robot.loops.actuated order."""
+        return self._act_order
+
+    @property
     def read_v_index(self) -> np.ndarray:
         """Velocity index of each read joint, in `joint_names` order."""
         return self._read_v_index

@@ -1,0 +1,279 @@
+"""Closed-chain samples evaluated all at once: assembly, implicit-function sensitivities, frame Jacobians.
+
+The per-sample path (robocal.model.kinematics.SampleState) assembles each sample with the damped Newton of
+robocal.model.loops.assemble and differentiates through the closures one sample at a time. Here the same
+formulas run on whole arrays over the samples (robocal.model.tree_arrays walks the tree, robocal.model.
+closure_arrays gives the closure rows):
+
+- assembly: every sample takes the damped step of `damped_newton` (mu = |c|^2) from its warm start (the plain
+  Newton step once mu is below 1e-20, where the two agree to rounding); a sample
+  whose full step does not lower |c|^2 enough (where the per-sample solver would start halving), or that has
+  not converged in `max_iterations`, is handed to `assemble` itself from the same warm start, so the branch
+  reached and the errors raised are those of the per-sample path;
+- sensitivities: C_s dq_s = -C_theta dtheta with C_s = dc/dv on the solved coordinates, one inverse per
+  sample (normal equations when there are more rows than unknowns: the least-squares solution lstsq gives);
+- a frame's parameter Jacobian is its tree Jacobian plus its solved-joint columns times dq_s/dtheta.
+
+World twists are the working form: a joint's placement twist acts through Ad(oMi[parent] jointPlacement),
+its offset through its world motion column; a frame's LOCAL twist is Ad(oMf^-1) of the world one.
+Robots with joint relations, tilts, compliance or backlash parameters keep the per-sample path
+(`supports_closed_batch`).
+"""
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+
+from robocal.errors import AssemblyError
+from robocal.model.batch_kinematics import FrameArrays
+from robocal.model.closure_groups import closure_groups, closure_state, parameter_rows, with_placements
+from robocal.model.lie_arrays import adjoint_inverse
+from robocal.model.loops import assemble
+from robocal.model.tree_arrays import TreeArrays, supports_tree_arrays
+from robocal.model.tree_twists import TreeTwists
+
+CHUNK = 256              # samples per block: work arrays this size stay in cache and in reused memory
+ARMIJO = 1e-4            # damped_newton's sufficient decrease: a full step below it goes to the per-sample solver
+SINGULAR_RCOND = 1e-5    # assemble's default: smallest / largest singular value of C_s at the solution
+NEGLIGIBLE_DAMPING = 1e-20   # |c|^2 below which the damped step is the Newton step to rounding
+
+
+def supports_closed_batch(ms) -> bool:
+    """Whether a ModelState's samples can be evaluated here: a closed chain without joint relations, tilts,
+    compliance or backlash, whose joints tree_arrays handles."""
+    loops = ms.loops
+    return (loops is not None and not loops.relations and ms.tilts is None and not ms.compliance_cols
+            and not ms.backlash_cols and not ms.compliance.any() and not ms.backlash.any()
+            and supports_tree_arrays(ms.model))
+
+
+class ClosedChainBatch:
+    """One ModelState of a closed chain at all samples; `frame(name, samples)` -> FrameArrays.
+
+    values: (N, n_read) readings in `ms.joint_names` order; warm_starts: sample index -> q (nq,), read for
+    the start of each assembly and updated with the solutions (the problem's dict, shared with the
+    per-sample path); jacobian: whether frames will be asked for their parameter Jacobians; samples: the
+    samples to assemble (default all); cache: a dict the caller keeps between passes of one problem."""
+
+    def __init__(self, ms, values: np.ndarray, warm_starts: dict, jacobian: bool = True, samples=None,
+                 cache: dict | None = None, tol: float = 1e-12, max_iterations: int = 50):
+        self.ms, self.model, self.loops = ms, ms.model, ms.loops
+        cache = {} if cache is None else cache
+        if cache.get("robot") is not ms.robot or cache.get("loops") is not ms.loops:
+            # what does not change between passes of one problem: the tree's and the closures' structure
+            tree = TreeArrays(ms.model)
+            cache.update(robot=ms.robot, loops=ms.loops, tree=tree,
+                         groups=closure_groups(ms.model, ms.loops, tree))
+        self.tree = cache["tree"].at_placements(ms.model)
+        self.solved = self.loops.solved_v
+        # the samples assembled (all by default): as the per-sample path, only those a residual looks at
+        self.samples = np.arange(len(values)) if samples is None else np.unique(np.asarray(samples, dtype=int))
+        self.position = np.full(len(values), -1)
+        self.position[self.samples] = np.arange(len(self.samples))
+        self.n = n = len(self.samples)
+        self.actuated = (values[self.samples] + ms.offsets)[:, ms.actuated_order]
+        self.groups = with_placements(cache["groups"], self.model)
+        self.twists = TreeTwists(ms, self.tree)
+        self.group_pairs = [[self.twists.pairs(js) for js in g.joints] for g in self.groups]
+        # the few columns the closures' parameter rows can hold: tree joints' placements and offsets
+        # and the anchor frames' placements
+        self.tcols = self.twists.free_columns
+        anchors = [f for g in self.groups for side in g.frames for f in side]
+        framed = [np.any(ms.P_frame[f] != 0.0, axis=0) for f in anchors if f in ms.P_frame]
+        self.ccols = np.union1d(self.tcols, np.flatnonzero(np.any(framed, axis=0)) if framed else [])
+        self.ccols = self.ccols.astype(int)
+        self.positions = np.searchsorted(self.ccols, self.twists.columns)     # padding (n_free) -> len(ccols)
+        self.group_frames = [[self._frame_columns(fids) for fids in g.frames] for g in self.groups]
+        neutral = pin.neutral(self.model)
+        guesses = np.array([warm_starts.get(i, neutral) for i in self.samples], dtype=float).reshape(n, self.model.nq)
+        # per block of CHUNK samples: joint placements R, p, solved-coordinate columns W, C_s^-1, C_theta (kept
+        # per block: one array for all samples, allocated up front, makes every temporary fault in fresh pages)
+        self.blocks, solutions = [], []
+        for start in range(0, n, CHUNK):
+            block = slice(start, min(start + CHUNK, n))
+            q, st = self._assemble(block, guesses[block], tol, max_iterations)
+            solver = self._solver(st["Cs"], self.samples[block])     # the per-sample path's check, always
+            self.blocks.append({"R": st["R"], "p": st["p"], "W": st["W"], "solver": solver,
+                                "C_theta": self._parameter_rows(st) if jacobian else None})
+            solutions.append(q)
+        self.q = np.concatenate(solutions) if solutions else guesses
+        rows = list(self.q.copy())     # handed out as warm starts: never written to again
+        warm_starts.update(zip(self.samples.tolist(), rows))
+
+    def _take(self, key: str, samples: np.ndarray, joint=None) -> np.ndarray:
+        """The per-sample array `key` at the samples (and one joint of it), gathered from the blocks."""
+        b = samples // CHUNK
+        index = (slice(None),) if joint is None else (slice(None), joint)
+        if len(b) and (b == b[0]).all():
+            local = samples - b[0] * CHUNK
+            if local[-1] - local[0] == len(local) - 1 and (np.diff(local) == 1).all():
+                local = slice(local[0], local[-1] + 1)       # a run of samples: a view, no copy
+            return self.blocks[b[0]][key][(local,) + index[1:]]
+        first = self.blocks[0][key][(slice(0, 1),) + index[1:]]
+        out = np.empty((len(samples),) + first.shape[1:])
+        for i in np.unique(b):
+            sel = b == i
+            out[sel] = self.blocks[i][key][(samples[sel] - i * CHUNK,) + index[1:]]
+        return out
+
+    # ---- assembly --------------------------------------------------------------------------
+    def _state(self, q: np.ndarray) -> dict:
+        return closure_state(self.tree, self.groups, self.loops.n_rows, self.solved, q)
+
+    def _set_actuated(self, q: np.ndarray, actuated: np.ndarray) -> np.ndarray:
+        q = q.copy()
+        for k, name in enumerate(self.loops.actuated):
+            j = self.model.joints[self.model.getJointId(name)]
+            if j.nq == 1:
+                q[:, j.idx_q] = actuated[:, k]
+            else:   # continuous joint stored as (cos, sin)
+                q[:, j.idx_q], q[:, j.idx_q + 1] = np.cos(actuated[:, k]), np.sin(actuated[:, k])
+        return q
+
+    def _assemble(self, block: slice, guesses: np.ndarray, tol: float, max_iterations: int):
+        """(q, closure state) of the samples `block`: damped Newton steps on all of them at once."""
+        actuated = self.actuated[block]
+        q = self._set_actuated(guesses, actuated)
+        n, ns = len(q), len(self.solved)
+        state = None
+        moving, failed = np.ones(n, dtype=bool), np.zeros(n, dtype=bool)
+        last_cost = np.full(n, np.inf)
+        for it in range(max_iterations + 1):
+            idx = np.flatnonzero(moving)
+            sub = self._state(q[idx])
+            state = sub if state is None else _scatter(state, sub, idx)
+            err = np.abs(sub["c"]).max(axis=1) if sub["c"].shape[1] else np.zeros(len(idx))
+            cost = np.einsum("ni,ni->n", sub["c"], sub["c"])
+            # a full step that did not help (or left the numbers): the per-sample solver takes over
+            failed[idx] = ~(cost < (1.0 - ARMIJO) * last_cost[idx]) | ~np.isfinite(cost)
+            moving[idx] = (err >= tol) & ~failed[idx]
+            if not moving.any() or it == max_iterations:
+                break
+            keep = moving[idx]
+            if keep.all():       # no copies while every sample still moves
+                keep = slice(None)
+            A, r, mu = sub["Cs"][keep], sub["c"][keep], cost[keep]
+            if A.shape[1] == ns and mu.max() < NEGLIGIBLE_DAMPING:
+                # mu = |c|^2 < 1e-20: the damped step differs from the Newton step -C_s^-1 c by mu / s_min^2 of
+                # itself, ~1e-25 m or rad for a Stewart platform's C_s (s_min ~ 0.1): solve C_s directly
+                step = -np.linalg.solve(A, r[:, :, None])[:, :, 0]
+            else:
+                normal = np.swapaxes(A, 1, 2) @ A
+                normal[:, np.arange(ns), np.arange(ns)] += mu[:, None]
+                step = -np.linalg.solve(normal, np.einsum("nmi,nm->ni", A, r)[:, :, None])[:, :, 0]
+            go = idx[keep]
+            last_cost[go] = mu
+            v = np.zeros((len(go), self.model.nv))
+            v[:, self.solved] = step
+            q[go] = self.tree.integrate(q[go], v)
+        failed |= moving
+        if failed.any():    # the per-sample solver (line search, its error messages) from the warm start
+            data = self.model.createData()
+            for i in np.flatnonzero(failed):
+                q[i] = assemble(self.ms.robot, self.model, actuated[i], q_guess=guesses[i].copy(),
+                                sample=int(self.samples[block][i]), data=data, loops=self.loops, tol=tol)
+            idx = np.flatnonzero(failed)
+            state = _scatter(state, self._state(q[idx]), idx)
+        return q, state
+
+    def _solver(self, Cs: np.ndarray, labels: np.ndarray) -> np.ndarray:
+        """(n, n_solved, m): C_s^-1, or (C_s^T C_s)^-1 C_s^T with more rows than unknowns (lstsq's solution);
+        raises AssemblyError where C_s is singular, as `assemble` does (exact check on the samples whose
+        norm bound on s_min / s_max falls below the threshold; `labels`: the block's sample indices)."""
+        square = Cs.shape[1] == Cs.shape[2]
+        A = Cs if square else np.swapaxes(Cs, 1, 2) @ Cs
+        try:
+            inv = np.linalg.inv(A)
+            bound = 1.0 / (np.linalg.norm(A, axis=(1, 2)) * np.linalg.norm(inv, axis=(1, 2)))
+        except np.linalg.LinAlgError:
+            inv, bound = None, np.zeros(len(A))
+        ratio_bound = bound if square else np.sqrt(bound)       # <= s_min / s_max of C_s
+        for i in np.flatnonzero(~(ratio_bound >= SINGULAR_RCOND)):
+            s = np.linalg.svd(Cs[i], compute_uv=False)
+            if s[-1] < SINGULAR_RCOND * max(s[0], 1e-300):
+                raise AssemblyError(f"sample {labels[i]}: closed-chain assembly reached a singular configuration "
+                                    f"(condition number {s[0] / max(s[-1], 1e-300):.3g}); the passive joints are "
+                                    "not determined by these readings")
+        if inv is None:         # the LU broke down on matrices the singular values call regular
+            inv = np.linalg.pinv(A)
+        return inv if square else inv @ np.swapaxes(Cs, 1, 2)
+
+    # ---- parameter Jacobians ---------------------------------------------------------------
+    def _frame_columns(self, fids):
+        """(columns (k, f) among ccols padded with len(ccols), F (k, 6, f)): the anchor frames' own placement
+        columns, or None when no anchor of the list has any."""
+        P = self.ms.P_frame
+        used = [np.flatnonzero(np.any(P[f] != 0.0, axis=0)) if f in P else np.zeros(0, dtype=int) for f in fids]
+        width = max(len(u) for u in used)
+        if width == 0:
+            return None
+        cols = np.full((len(fids), width), len(self.ccols), dtype=int)
+        F = np.zeros((len(fids), 6, width))
+        for k, (f, u) in enumerate(zip(fids, used)):
+            cols[k, :len(u)] = np.searchsorted(self.ccols, u)
+            F[k, :, :len(u)] = P[f][:, u]
+        return cols, F
+
+    def _parameter_rows(self, st: dict) -> np.ndarray:
+        """C_theta (n, m, len(ccols)): the closure rows' derivative w.r.t. the free parameters, joints held."""
+        n, nc = len(st["c"]), len(self.ccols)
+        G = self.twists.twists(st["R"], st["p"]) if len(self.twists.active) else None
+        pieces = []
+        for g, pairs, frames in zip(self.groups, self.group_pairs, self.group_frames):
+            sides = [(pk, self.positions[pa], G[:, pa]) if G is not None and len(pk) else (None, None, None)
+                     for pk, pa in pairs]
+            pieces.append((g, parameter_rows(g, st["R"], st["p"], sides, frames, nc)))
+        if len(pieces) == 1 and pieces[0][0].in_order:
+            return pieces[0][1]
+        out = np.empty((n, self.loops.n_rows, nc))      # allocated last (see closure_state)
+        for g, rows in pieces:
+            out[:, g.rows] = rows
+        return out
+
+    def frame(self, frame, samples, jacobian: bool = True) -> FrameArrays:
+        """The frame at the samples; its own LOCAL parameter Jacobian (to_frame = I) when asked for:
+        J = J_tree + J_solved dq_s/dtheta, dq_s/dtheta = -C_s^-1 C_theta (implicit-function theorem)."""
+        ms = self.ms
+        fid = frame if isinstance(frame, (int, np.integer)) else ms.robot.frame_id(frame)
+        samples = self.position[np.asarray(samples, dtype=int)]
+        if (samples < 0).any():
+            raise ValueError("ClosedChainBatch.frame: a sample that was not assembled")
+        f = self.model.frames[fid]
+        Rj, pj = self._take("R", samples, f.parentJoint), self._take("p", samples, f.parentJoint)
+        R0, p0 = Rj @ f.placement.rotation, pj + Rj @ f.placement.translation
+        Rb, pb = ms.base.rotation, ms.base.translation
+        R, p = Rb @ R0, p0 @ Rb.T + pb
+        if not jacobian:
+            return FrameArrays(R, p, R0, p0, None, np.eye(6))
+        moving = np.flatnonzero(np.isin(self.solved, self.tree.support_v[f.parentJoint]))   # solved coordinates
+        _, supports = self.twists.pairs([f.parentJoint])
+        pieces = []
+        for start in range(0, len(samples), CHUNK):
+            block = slice(start, min(start + CHUNK, len(samples)))
+            s = samples[block]
+            Jb = np.zeros((len(s), 6, ms.n_free))
+            to_local = adjoint_inverse(R0[block], p0[block])
+            if len(moving):     # the frame's solved joints' columns times their rows of C_s^-1
+                Y = (to_local @ self._take("W", s)[:, :, moving]) @ self._take("solver", s)[:, moving]
+                Jb[..., self.ccols] = -(Y @ self._take("C_theta", s))
+            if len(supports):
+                G = self.twists.twists(self._take("R", s), self._take("p", s))
+                for a in supports:
+                    real = self.twists.columns[a] < ms.n_free        # padding columns carry zeros: dropped
+                    Jb[..., self.twists.columns[a][real]] += (to_local @ G[:, a])[..., real]
+            if ms.has_base_params:
+                Jb += to_local @ ms.P_base
+            pieces.append(Jb)
+        J = np.concatenate(pieces) if len(pieces) > 1 else pieces[0] if pieces else np.zeros((0, 6, ms.n_free))
+        if fid in ms.P_frame:
+            J += ms.P_frame[fid]
+        return FrameArrays(R, p, R0, p0, J, np.eye(6))
+
+
+def _scatter(state: dict, sub: dict, idx: np.ndarray) -> dict:
+    """`state` with the samples `idx` replaced by `sub` (same keys)."""
+    if len(idx) == len(state["c"]) and np.array_equal(idx, np.arange(len(idx))):
+        return sub
+    for key, value in sub.items():
+        state[key][idx] = value
+    return state
