@@ -147,15 +147,13 @@ class BatchKinematics:
             self.constants.regressors[jid] = (samples.copy(), q, placements, out)
         return out
 
-    def twist_map(self, ms) -> tuple[np.ndarray, np.ndarray]:
+    def twist_map(self, ms) -> np.ndarray:
         """(6 n_joints, n_free): d(placement twists)/d(free parameters), with each offset column written as
-        its joint's motion subspace S_j (a joint turning by dq moves the frame like a placement twist S_j dq);
-        and the indices of its nonzero columns."""
+        its joint's motion subspace S_j (a joint turning by dq moves the frame like a placement twist S_j dq)."""
         if self._twist_map is None:
             S = self.constants.subspace                       # (nv, 6); one-dof joints: v = joint - 1
             offsets = (S[:, :, None] * ms.P_offset[:, None, :]).reshape(6 * len(S), ms.n_free)
-            tmap = offsets + ms.P_joint if ms.has_joint_params else offsets
-            self._twist_map = (tmap, np.flatnonzero(np.any(tmap != 0.0, axis=0)))
+            self._twist_map = offsets + ms.P_joint if ms.has_joint_params else offsets
         return self._twist_map
 
     def frame(self, frame, samples, jacobian: bool = True) -> FrameArrays:
@@ -199,16 +197,13 @@ class BatchKinematics:
         ms, model = self.ms, self.model
         n, nj, nf = len(samples), model.njoints - 1, ms.n_free
         J = self.constants.buffer(("jacobian", fid), (n, 6, nf))
-        tmap, moving = self.twist_map(ms)
-        if len(moving) == 0:     # only frames and the base are free (a registration): no joint term
+        tmap = self.twist_map(ms)
+        if not tmap.any():       # only frames and the base are free (a registration): no joint term
             J[...] = 0.0
-        elif len(moving) == nf:
+        else:
             # offsets act through the joints' columns Ad(X_j) S_j: folded into the placement map, one GEMM
             # serves both (the (n*6, 6 n_joints) regressors times a (6 n_joints, n_free) map)
             np.matmul(reg.reshape(6 * n, 6 * nj), tmap, out=J.reshape(6 * n, nf))
-        else:                    # the frame and base columns have no joint term: the GEMM skips them
-            J[...] = 0.0
-            J[:, :, moving] = (reg.reshape(6 * n, 6 * nj) @ tmap[:, moving]).reshape(n, 6, len(moving))
         if ms.compliance_cols or ms.backlash_cols:
             Jq = np.einsum("nijk,jk->nij", reg.reshape(n, 6, nj, 6), self.constants.subspace)   # (n, 6, nv)
             tau = self.constants.tau
