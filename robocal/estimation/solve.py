@@ -143,8 +143,10 @@ def levenberg_marquardt(fun: Callable, x0: np.ndarray, lower=None, upper=None, l
             if np.linalg.norm(D * dx) <= xtol * (np.linalg.norm(D * x) + xtol):
                 # a rejected step that is already negligible: the minimum is found to working precision
                 return result(3, "step below xtol", it)
-            if predicted <= 1e-14 * cost or cost <= 1e-28 * cost0:
-                # even the model predicts nothing to gain: the fit is exact to rounding (noise-free data)
+            if cost <= 1e-28 * cost0 or (predicted <= 1e-14 * cost and 0.5 * float(qtr @ qtr) <= 1e-12 * cost):
+                # even the undamped model predicts nothing to gain: the fit is exact to rounding (noise-free
+                # data). A damped prediction alone shrinks with the damping whatever the Jacobian: a wrong
+                # Jacobian would end here as a success; it goes on to the damping cap and fails instead
                 return result(4, "cost at the rounding level", it)
             lam *= 4.0
             if lam > 1e16:
