@@ -18,7 +18,7 @@ import pinocchio as pin  # noqa: E402
 
 import robocal  # noqa: E402
 from robocal.model.loops import assemble  # noqa: E402
-from robocal.systems.stewart import mechanism as st  # noqa: E402
+from robocal.systems.stewart import fk as stewart_fk, mechanism as st  # noqa: E402
 
 URDF = Path(__file__).resolve().parents[1] / "urdf"
 
@@ -46,7 +46,7 @@ def run(name: str, geometry: st.StewartGeometry, n_poses: int, n_batch: int, rng
     R, p = st.random_workspace_poses(geometry, max(n_poses, 200), rng)
     s = st.inverse_kinematics_batch(geometry, R, p)
     poses = [pin.SE3(R[k], p[k]) for k in range(len(R))]
-    worst = max(pose_error(st.forward_kinematics(geometry, s[k]), poses[k]) for k in range(200))
+    worst = max(pose_error(stewart_fk.forward_kinematics(geometry, s[k]), poses[k]) for k in range(200))
     rows.append(("IK/FK round trip, 200 poses, max |log6|", f"{worst:.2e}", "< 1e-9"))
     worst, q = 0.0, None
     for k in range(n_poses):
@@ -57,9 +57,9 @@ def run(name: str, geometry: st.StewartGeometry, n_poses: int, n_batch: int, rng
     # single solves: cold = from the home pose, warm = from a pose 1 mm / 1 mrad away
     n = 200
     near = [poses[k] * pin.exp6(np.full(6, 1e-3)) for k in range(n)]
-    t = best_of(lambda: [st.forward_kinematics(geometry, s[k]) for k in range(n)]) / n
+    t = best_of(lambda: [stewart_fk.forward_kinematics(geometry, s[k]) for k in range(n)]) / n
     rows.append(("closed-form FK single solve, cold start", f"{t * 1e6:.1f} us", "< 50 us"))
-    t = best_of(lambda: [st.forward_kinematics(geometry, s[k], guess=near[k]) for k in range(n)]) / n
+    t = best_of(lambda: [stewart_fk.forward_kinematics(geometry, s[k], guess=near[k]) for k in range(n)]) / n
     rows.append(("closed-form FK single solve, warm start", f"{t * 1e6:.1f} us", "< 50 us"))
     t = best_of(lambda: [st.inverse_kinematics(geometry, poses[k]) for k in range(n)]) / n
     rows.append(("closed-form IK single pose", f"{t * 1e6:.1f} us", ""))
@@ -73,12 +73,12 @@ def run(name: str, geometry: st.StewartGeometry, n_poses: int, n_batch: int, rng
     # batches
     Rb, pb = st.random_workspace_poses(geometry, n_batch, rng)
     sb = st.inverse_kinematics_batch(geometry, Rb, pb)
-    t = best_of(lambda: st.forward_kinematics_batch(geometry, sb))
-    Rf, pf, converged = st.forward_kinematics_batch(geometry, sb)
+    t = best_of(lambda: stewart_fk.forward_kinematics_batch(geometry, sb))
+    Rf, pf, converged = stewart_fk.forward_kinematics_batch(geometry, sb)
     err = max(np.abs(Rf - Rb).max(), np.abs(pf - pb).max())
     rows.append((f"closed-form FK batch of {n_batch}, cold start", f"{n_batch / t:,.0f} /s", "> 100,000 /s"))
     rows.append((f"  batch converged / max error", f"{converged.sum()}/{n_batch}, {err:.1e}", ""))
-    t = best_of(lambda: st.forward_kinematics_batch(geometry, sb, Rb @ st.rotation_xyz([1e-3] * 3), pb + 1e-3))
+    t = best_of(lambda: stewart_fk.forward_kinematics_batch(geometry, sb, Rb @ st.rotation_xyz([1e-3] * 3), pb + 1e-3))
     rows.append((f"closed-form FK batch of {n_batch}, warm start", f"{n_batch / t:,.0f} /s", "> 100,000 /s"))
     t = best_of(lambda: st.inverse_kinematics_batch(geometry, Rb, pb))
     rows.append((f"closed-form IK batch of {n_batch}", f"{n_batch / t:,.0f} /s", ""))

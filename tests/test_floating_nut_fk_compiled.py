@@ -10,7 +10,8 @@ from robocal.errors import InputError  # noqa: E402
 from robocal.systems.floating_nut import fk as floating_nut_fk  # noqa: E402
 from robocal.systems.floating_nut.fk_compiled import CompiledSinglePoseFK  # noqa: E402
 from robocal.systems.floating_nut.geometry import reference_fixture, rotation_matrices  # noqa: E402
-from robocal.systems.floating_nut.kinematics import (FKNotConverged, FloatingNutKinematics,  # noqa: E402
+from robocal.systems.floating_nut.results import FKNotConverged
+from robocal.systems.floating_nut.kinematics import (FloatingNutKinematics,  # noqa: E402
                                                         SingularHookeError)
 
 DEG = np.pi / 180

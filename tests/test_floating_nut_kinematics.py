@@ -5,7 +5,8 @@ import pytest
 from robocal.errors import AssemblyError, InputError
 from robocal.systems.floating_nut.geometry import (FloatingNutGeometry, reference_fixture,
                                                       rotation_matrices, sigma_from_thread, thread_hand)
-from robocal.systems.floating_nut.kinematics import (FKNotConverged, FloatingNutKinematics,
+from robocal.systems.floating_nut.results import FKNotConverged
+from robocal.systems.floating_nut.kinematics import (FloatingNutKinematics,
                                                         SingularHookeError)
 
 DEG = np.pi / 180

@@ -29,11 +29,11 @@ def test_ik_fk_round_trip_on_200_poses(machine):
     geometry, _ = machine
     R, p = st.random_workspace_poses(geometry, 200, np.random.default_rng(0))
     s = st.inverse_kinematics_batch(geometry, R, p)
-    worst = max(pose_error(st.forward_kinematics(geometry, s[k], sample=k), pin.SE3(R[k], p[k]))
+    worst = max(pose_error(stewart_fk.forward_kinematics(geometry, s[k], sample=k), pin.SE3(R[k], p[k]))
                 for k in range(200))
     assert worst < 1e-9
     # the batch solver gives the same poses
-    Rb, pb, converged = st.forward_kinematics_batch(geometry, s)
+    Rb, pb, converged = stewart_fk.forward_kinematics_batch(geometry, s)
     assert converged.all()
     assert np.abs(Rb - R).max() < 1e-9 and np.abs(pb - p).max() < 1e-9
 
@@ -79,7 +79,7 @@ def test_fk_noise_propagation_matches_the_linearised_prediction():
     n, sigma = 2000, 1e-6
     R, p = st.random_workspace_poses(geometry, n, rng)
     s = st.inverse_kinematics_batch(geometry, R, p) + rng.normal(0, sigma, (n, 6))
-    Rf, pf, _ = st.forward_kinematics_batch(geometry, s, R, p)
+    Rf, pf, _ = stewart_fk.forward_kinematics_batch(geometry, s, R, p)
     chi2 = np.empty(n)
     for k in range(n):
         M = pin.SE3(R[k], p[k])
@@ -94,11 +94,11 @@ def test_unreachable_struts_raise_assembly_error_naming_the_sample(machine):
     s = st.inverse_kinematics(geometry, geometry.home_pose)
     s[0] += 2.0  # one strut 2 m longer than the others allow
     with pytest.raises(AssemblyError, match="sample 17"):
-        st.forward_kinematics(geometry, s, sample=17)
+        stewart_fk.forward_kinematics(geometry, s, sample=17)
     with pytest.raises(AssemblyError, match="sample 17"):
         assemble(robot, robot.model, s, sample=17)
     with pytest.raises(AssemblyError, match=r"samples \[1\]"):
-        st.forward_kinematics_batch(geometry, np.vstack([s - [2.0, 0, 0, 0, 0, 0], s]))
+        stewart_fk.forward_kinematics_batch(geometry, np.vstack([s - [2.0, 0, 0, 0, 0, 0], s]))
 
 
 def test_singular_pose_raises_assembly_error():
@@ -110,7 +110,7 @@ def test_singular_pose_raises_assembly_error():
     s = st.inverse_kinematics(geometry, singular)
     guess = singular * pin.exp6(np.array([0, 0, 0.01, 0, 0, 0.05]))
     with pytest.raises(AssemblyError, match="sample 3: .*singular"):
-        st.forward_kinematics(geometry, s, guess=guess, sample=3)
+        stewart_fk.forward_kinematics(geometry, s, guess=guess, sample=3)
     with pytest.raises(AssemblyError, match="sample 3: .*singular"):
         assemble(robot, robot.model, s, q_guess=st.configuration_from_pose(robot, geometry, guess), sample=3)
 
@@ -215,13 +215,13 @@ def test_single_fk_newton_solves_and_strut_residual(machine, monkeypatch):
     worst = 0.0
     for k in range(300):
         calls.clear()
-        pose = st.forward_kinematics(geometry, s[k], sample=k)
+        pose = stewart_fk.forward_kinematics(geometry, s[k], sample=k)
         assert len(calls) <= 4
         worst = max(worst, np.linalg.norm(st.inverse_kinematics(geometry, pose) - s[k]))
     assert worst < 1e-12
     calls.clear()
     exact = pin.SE3(R[0], p[0])
-    assert pose_error(st.forward_kinematics(geometry, s[0], guess=exact), exact) < 1e-15
+    assert pose_error(stewart_fk.forward_kinematics(geometry, s[0], guess=exact), exact) < 1e-15
     assert len(calls) == 1
 
 
@@ -230,4 +230,4 @@ def test_non_positive_strut_length_raises_naming_the_sample(machine):
     s = st.inverse_kinematics(geometry, geometry.home_pose)
     s[2] = -geometry.offsets[2] - 0.1    # o + s < 0: |l| = o + s has no solution (its square would)
     with pytest.raises(AssemblyError, match="sample 4: .*non-positive"):
-        st.forward_kinematics(geometry, s, sample=4)
+        stewart_fk.forward_kinematics(geometry, s, sample=4)

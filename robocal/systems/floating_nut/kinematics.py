@@ -24,7 +24,7 @@ from robocal.systems.floating_nut.fk_compiled import single_pose_solver
 from robocal.systems.floating_nut.home_step import HomeStep
 from robocal.systems.floating_nut.geometry import N_LEGS, FloatingNutGeometry, omega_maps, rotation_matrices
 from robocal.systems.floating_nut.inputs import as_lengths, as_poses, single_pose_inputs
-from robocal.systems.floating_nut.results import (SINGULAR_TOL, TWO_PI, FKNotConverged, FKResult, IKDetails,
+from robocal.systems.floating_nut.results import (SINGULAR_TOL, TWO_PI, FKResult, IKDetails,
                                                   SingularHookeError, wrap_angle)
 from robocal.systems.floating_nut.vectors import cross, dot, universal_angles
 

@@ -17,8 +17,8 @@ import pinocchio as pin
 
 from robocal.estimation.identifiability import BaseSelection, select_base_parameters
 from robocal.model.kinematics import ModelState
-from robocal.systems.stewart.mechanism import (StewartGeometry, forward_kinematics, geometry_from_model,
-                                               inverse_kinematics)
+from robocal.systems.stewart.fk import forward_kinematics
+from robocal.systems.stewart.mechanism import StewartGeometry, geometry_from_model, inverse_kinematics
 from robocal.model.parameters import ParameterSet, offset_parameter, placement_parameters
 from robocal.systems.stewart.modes import Tool, numeric_rows, rotation
 

@@ -29,8 +29,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 from robocal.errors import InputError
-# the FK lives in its own module; it is re-exported here, where callers look for it
-from robocal.systems.stewart.fk import forward_kinematics, forward_kinematics_batch, newton_tables  # noqa: F401
+from robocal.systems.stewart.fk import newton_tables
 from robocal.io.text_files import format_numbers, write_atomic
 
 @dataclass(frozen=True)
