@@ -107,18 +107,18 @@ def select_base_parameters(J: np.ndarray, names: list[str] | None = None, rtol: 
     W = scipy.linalg.qr(scaled, mode="r")[0][:n] if m > n else scaled.copy()
     singular = np.linalg.svd(W, compute_uv=False) if n else np.zeros(0)
     chosen: list[int] = []
-    basis: list[np.ndarray] = []
+    basis = np.zeros((W.shape[0], n))   # orthonormal columns 0..k-1 span the chosen columns
     for j in range(n):
         if not live[j] or (allowed is not None and j not in allowed):
             continue
         qv = W[:, j].copy()
+        B = basis[:, :len(chosen)]
         for _ in range(2):  # Gram-Schmidt twice: orthogonal to working precision
-            for b in basis:
-                qv -= b * (b @ qv)
+            qv -= B @ (B.T @ qv)
         remaining_norm = np.linalg.norm(qv)
         if remaining_norm > rtol:
+            basis[:, len(chosen)] = qv / remaining_norm
             chosen.append(j)
-            basis.append(qv / remaining_norm)
     # Remaining norms are not rank-revealing when a dependency is spread thinly over several columns, so
     # the kept block must also pass a singular-value test: while its condition exceeds 1/rtol, drop the
     # latest parameter that takes part in the weakest direction.

@@ -17,7 +17,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg
-from scipy.optimize import minimize_scalar
 
 STRENGTHS = np.logspace(-2, 1, 31)     # lam: prior sigma from 1/100 to 10 physical scales
 RANK_TOL = 1e-10
@@ -59,18 +58,33 @@ def choose_strength(J: np.ndarray, r: np.ndarray, scales: np.ndarray, strengths=
     k = len(d)
     n_rest = max(m_eff - k, 0)
 
-    def neg_log_evidence(log_s2: float, lam: float) -> float:
+    def neg_log_evidence(log_s2: np.ndarray, lam: np.ndarray) -> np.ndarray:
+        """Over a (strengths, points) array of log s2; lam (strengths, 1)."""
         s2 = np.exp(log_s2)
-        v = s2 + (lam * d) ** 2
-        return 0.5 * (np.sum(z ** 2 / v) + np.sum(np.log(v)) + (rest / s2 if n_rest else 0.0) + n_rest * log_s2)
+        v = s2[..., None] + (lam[..., None] * d) ** 2
+        return 0.5 * (np.sum(z ** 2 / v, axis=-1) + np.sum(np.log(v), axis=-1) + (rest / s2 if n_rest else 0.0)
+                      + n_rest * log_s2)
 
+    # each strength's best log s2: the best of a grid one e-fold apart over the bracket, then a golden-section
+    # search within a step of it to 1e-7, for every strength at once
     scale0 = max((y @ y) / max(m_eff, 1), 1e-300)
-    curve, noise = [], []
-    for lam in strengths:
-        best = minimize_scalar(neg_log_evidence, bounds=(np.log(scale0) - 30, np.log(scale0) + 5),
-                               args=(lam,), method="bounded", options={"xatol": 1e-6})
-        curve.append(-best.fun)
-        noise.append(float(np.exp(best.x)))
+    lam = np.asarray(strengths, float)[:, None]
+    grid = np.log(scale0) + np.arange(-30.0, 5.01, 1.0)
+    best = grid[np.argmin(neg_log_evidence(np.broadcast_to(grid, (len(lam), len(grid))), lam), axis=1)]
+    lo, hi = np.maximum(best - 1.0, grid[0]), np.minimum(best + 1.0, grid[-1])
+    ratio = (np.sqrt(5.0) - 1.0) / 2.0
+    a, b = hi - ratio * (hi - lo), lo + ratio * (hi - lo)
+    fa, fb = neg_log_evidence(a[:, None], lam)[:, 0], neg_log_evidence(b[:, None], lam)[:, 0]
+    while np.max(hi - lo) > 1e-7:
+        left = fa < fb                       # the minimum lies in [lo, b], else in [a, hi]
+        lo, hi = np.where(left, lo, a), np.where(left, b, hi)
+        x = np.where(left, hi - ratio * (hi - lo), lo + ratio * (hi - lo))     # the one new interior point
+        fx = neg_log_evidence(x[:, None], lam)[:, 0]
+        a, fa, b, fb = (np.where(left, x, b), np.where(left, fx, fb),
+                        np.where(left, a, x), np.where(left, fa, fx))
+    t = 0.5 * (lo + hi)
+    curve = list(-neg_log_evidence(t[:, None], lam)[:, 0])
+    noise = list(np.exp(t))
     i = int(np.argmax(curve))
     stderr = np.full(len(scales), np.inf)
     big = d > RANK_TOL * (d[0] if k else 1.0)
