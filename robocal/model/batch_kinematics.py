@@ -115,7 +115,7 @@ class BatchKinematics:
     def __init__(self, ms, constants: SampleConstants, values: np.ndarray, directions: np.ndarray | None):
         self.ms, self.constants = ms, constants
         self.model = ms.kin_model
-        self.data = self.model.createData()   # own Data: the per-sample path's cached state stays valid
+        self._data = None
         link = values if directions is None else values + ms.backlash * directions
         link = link + ms.offsets
         if constants.tau is not None:
@@ -137,7 +137,9 @@ class BatchKinematics:
         if (hit is not None and np.array_equal(hit[0], samples) and np.array_equal(hit[1], q)
                 and np.array_equal(hit[2], placements)):
             return hit[3]
-        data = self.data
+        if self._data is None:      # own Data (the per-sample path's cached state stays valid), on a cache miss
+            self._data = model.createData()
+        data = self._data
         shape = (len(samples), 6, 6 * (model.njoints - 1))
         out = hit[3] if hit is not None and hit[3].shape == shape else np.empty(shape)   # the old entry's memory
         for row, qi in enumerate(q):

@@ -33,7 +33,7 @@ class ModelState:
         self.robot, self.params, self.joint_names = robot, params, list(joint_names)
         nominal = robot.model
         self.model = nominal.copy()
-        self.data = self.model.createData()
+        self._data = None
         free = params.free_names
         self.n_free = len(free)
         col = params.column_map()   # parameter -> [(free column, coefficient)]; ties act on their leaders
@@ -118,7 +118,7 @@ class ModelState:
         # the model the samples run: the calibrated one, or a copy whose tilted joints move per sample
         self.tilts = JointTilts(robot, self.model, tilts) if tilts else None
         self.kin_model = self.model.copy() if tilts else self.model
-        self.kin_data = self.kin_model.createData() if tilts else self.data
+        self._kin_data = self.kin_model.createData() if tilts else None
         self.loops = robot.loops
         self.warm_starts: dict = {}      # sample label -> last assembled q (shared across parameter updates)
         if self.loops is not None:
@@ -132,6 +132,17 @@ class ModelState:
             raise ValueError("transmission parameters need a robot with joint relations (screw transmissions or "
                              "couplings)")
 
+
+    @property
+    def data(self) -> pin.Data:
+        """The calibrated model's Data, made on first use (a batched pass never needs it)."""
+        if self._data is None:
+            self._data = self.model.createData()
+        return self._data
+
+    @property
+    def kin_data(self) -> pin.Data:
+        return self._kin_data if self._kin_data is not None else self.data
     def _frame_depth(self, group: tuple[str, str]) -> int:
         """How many frames a calibrated frame hangs below on its joint (0 for other kinds)."""
         kind, target = group
