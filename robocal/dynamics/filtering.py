@@ -124,8 +124,11 @@ def best_lag(reference: np.ndarray, other: np.ndarray, max_lag: int) -> int:
 
 
 def process_log(t: np.ndarray, q: np.ndarray, v: np.ndarray, effort: np.ndarray,
-                options: SignalOptions | None = None) -> ProcessedLog:
-    """Resample, filter, differentiate, trim and decimate a log (t (T,) s; q, v, effort (T, n))."""
+                options: SignalOptions | None = None, spectrum_window: tuple[float, float] | None = None
+                ) -> ProcessedLog:
+    """Resample, filter, differentiate, trim and decimate a log (t (T,) s; q, v, effort (T, n)).
+    spectrum_window: the time window whose spectrum chooses the cut-off (the training window: a choice
+    made on the data the fit sees; default the whole log)."""
     opt = options or SignalOptions()
     grid, dt = uniform_grid(t)
     fs = 1.0 / dt
@@ -133,9 +136,12 @@ def process_log(t: np.ndarray, q: np.ndarray, v: np.ndarray, effort: np.ndarray,
     vg = CubicSpline(t, v, axis=0)(grid)
     eg = np.column_stack([np.interp(grid, t, effort[:, j]) for j in range(effort.shape[1])])
     if opt.cutoff_hz is None:
-        fc, per_joint = spectral_cutoff(vg, fs, opt.power_fraction, opt.cutoff_margin)
+        inside = np.ones(len(grid), bool) if spectrum_window is None else (
+            (grid >= spectrum_window[0]) & (grid < spectrum_window[1]))
+        fc, per_joint = spectral_cutoff(vg[inside], fs, opt.power_fraction, opt.cutoff_margin)
+        where = "the log" if spectrum_window is None else f"the window {list(spectrum_window)} s"
         rule = (f"cut-off {fc:.3g} Hz = {opt.cutoff_margin:g} x the largest frequency holding "
-                f"{100 * opt.power_fraction:g} % of a joint's logged-velocity power (per joint: "
+                f"{100 * opt.power_fraction:g} % of a joint's logged-velocity power over {where} (per joint: "
                 + ", ".join(f"{f:.3g}" for f in per_joint) + " Hz; Welch spectrum)")
     else:
         fc = float(opt.cutoff_hz)

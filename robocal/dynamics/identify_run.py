@@ -87,14 +87,21 @@ def identify_from_config(path_or_dict, base_dir=None) -> IdentifyResult:
     offset = np.array([cfg.torque_offset.get(j, 0.0) for j in recorded])
     tau = log.effort[:, rec_cols] * scale + offset
     proc = process_log(log.t, model_columns(model, cfg.joints, log.q), model_columns(model, cfg.joints, log.v),
-                       tau, cfg.signal)
+                       tau, cfg.signal, spectrum_window=cfg.train)
     width = cfg.coulomb_width * np.sqrt(np.mean(proc.v[_in(proc.t, cfg.train)][:, rec_idx] ** 2, axis=0))
     # parallel filtering: regressor at the full rate, same low-pass as the torques, then decimation
     reg_all = build_regressor(model, proc.q, proc.v, proc.a, rec_idx, cfg.terms, width).transformed(
         lambda X: parallel_filter(proc, X))
     t_dec = proc.t[::proc.decimation]
     tau_dec = proc.effort[::proc.decimation]
-    train, check = _in(t_dec, cfg.train), _in(t_dec, cfg.validate)
+    # the zero-phase filter spreads each sample over a few cut-off periods: training samples that close to
+    # the validation window would carry its data into the fit, so they are left out
+    guard = cfg.signal.edge_periods / proc.cutoff_hz
+    train = _in(t_dec, cfg.train) & ~_in(t_dec, (cfg.validate[0] - guard, cfg.validate[1] + guard))
+    check = _in(t_dec, cfg.validate)
+    proc.choices.append(f"training samples within {guard:.3g} s ({cfg.signal.edge_periods:g} cut-off periods) of "
+                        f"the validation window left out of the fit: the zero-phase filter would carry its data "
+                        f"into them")
     if train.sum() < 10 or check.sum() < 10:
         raise InputError(f"after filtering, {train.sum()} training and {check.sum()} validation samples remain; "
                          "widen the windows", source=cfg.source, field="windows")

@@ -8,7 +8,8 @@ The pseudo-inertia is linear in pi (inertial.py), so this is a quadratic program
 to its tolerance in about ten iterations. The variables are scaled by H's diagonal first, because
 the inertial parameters span several orders of magnitude. Clarabel's answer may lie a rounding
 error outside a cone; each body's pseudo-inertia is therefore clipped to its nearest PSD matrix, so
-every returned body passes the PSD test whatever the solver's tolerance.
+every returned body passes the PSD test whatever the solver's tolerance. When the unconstrained minimiser
+already satisfies every constraint it is returned as it is (exact, no interior-point margin).
 (An ADMM written for robocal was used before: slow, and at weak priors its residual-based stopping
 test accepted points far from the optimum; docs/dynamics_tiago.md.)
 """
@@ -52,6 +53,9 @@ def solve_psd_qp(H: np.ndarray, q: np.ndarray, n_bodies: int, lower: np.ndarray)
     lower: (n_extra,) bounds on phi (-inf where free)."""
     n = H.shape[0]
     n_in = 10 * n_bodies
+    inside = unconstrained_if_feasible(H, q, n_bodies, lower)
+    if inside is not None:        # the constraints are not active: the exact optimum, no interior-point margin
+        return PsdQpResult(inside, 0, "Solved", True)
     diag = np.diag(H).copy()
     diag[diag <= 0] = 1.0
     d = 1.0 / np.sqrt(diag)                  # x = d * y: y's quadratic form has a unit diagonal
@@ -74,7 +78,7 @@ def solve_psd_qp(H: np.ndarray, q: np.ndarray, n_bodies: int, lower: np.ndarray)
     settings.verbose = False
     # tighter than the defaults (1e-8): an optimum a few 1e-5 from a cone's boundary (a thin body)
     # otherwise keeps the central path's margin in its last digits
-    settings.tol_gap_abs = settings.tol_gap_rel = settings.tol_feas = 1e-11
+    settings.tol_gap_abs = settings.tol_gap_rel = settings.tol_feas = 1e-8
     solver = clarabel.DefaultSolver(sp.csc_matrix(np.triu(H * d[:, None] * d[None, :])), -q * d,
                                     sp.csc_matrix(A), np.concatenate(rhs), cones, settings)
     sol = solver.solve()
@@ -86,6 +90,22 @@ def solve_psd_qp(H: np.ndarray, q: np.ndarray, n_bodies: int, lower: np.ndarray)
         x[10 * b:10 * b + 10] = nearest_realisable(x[10 * b:10 * b + 10])
     x[n_in:] = np.maximum(x[n_in:], lower)
     return PsdQpResult(x, int(sol.iterations), status, status == "Solved")
+
+
+def unconstrained_if_feasible(H: np.ndarray, q: np.ndarray, n_bodies: int, lower: np.ndarray) -> np.ndarray | None:
+    """The unconstrained minimiser H^-1 q when it satisfies every constraint, else None."""
+    try:
+        x = np.linalg.solve(H, q)
+    except np.linalg.LinAlgError:
+        return None
+    n_in = 10 * n_bodies
+    if not np.all(np.isfinite(x)) or np.any(x[n_in:] < lower):
+        return None
+    for b in range(n_bodies):
+        eig = np.linalg.eigvalsh(pseudo_inertia(x[10 * b:10 * b + 10]))
+        if eig[0] < 0:
+            return None
+    return x
 
 
 def nearest_realisable(p: np.ndarray) -> np.ndarray:
