@@ -279,11 +279,11 @@ class ClosedChainBatch:
             return FrameArrays(R, p, R0, p0, None, np.eye(6))
         moving = np.flatnonzero(np.isin(self.solved, self.tree.support_v[f.parentJoint]))   # solved coordinates
         _, supports = self.twists.pairs([f.parentJoint])
-        pieces = []
+        J = np.zeros((len(samples), 6, ms.n_free))      # filled block by block (no concatenation)
         for start in range(0, len(samples), CHUNK):
             block = slice(start, min(start + CHUNK, len(samples)))
             s = samples[block]
-            Jb = np.zeros((len(s), 6, ms.n_free))
+            Jb = J[block]
             to_local = adjoint_inverse(R0[block], p0[block])
             if len(moving):     # the frame's solved joints' columns times their rows of C_s^-1
                 Y = (to_local @ self._take("W", s)[:, :, moving]) @ self._take("solver", s)[:, moving]
@@ -295,8 +295,6 @@ class ClosedChainBatch:
                     Jb[..., self.twists.columns[a][real]] += (to_local @ G[:, a])[..., real]
             if ms.has_base_params:
                 Jb += to_local @ ms.P_base
-            pieces.append(Jb)
-        J = np.concatenate(pieces) if len(pieces) > 1 else pieces[0] if pieces else np.zeros((0, 6, ms.n_free))
         if fid in ms.P_frame:
             J += ms.P_frame[fid]
         return FrameArrays(R, p, R0, p0, J, np.eye(6))
