@@ -31,6 +31,7 @@ class PointArrow:
     def __init__(self, rows: np.ndarray, own: np.ndarray, shared: np.ndarray):
         self.rows, self.own, self.shared = rows, own, shared
         self.k = len(rows)
+        self.columns = np.hstack([own, np.tile(shared, (len(rows), 1))])      # (k, 2 + s): own, then shared
 
     @classmethod
     def from_groups(cls, groups, n_rows: int, n_solved: int) -> "PointArrow | None":
@@ -54,14 +55,16 @@ class PointArrow:
         own = np.array([np.flatnonzero(m) for m in own_mask])
         return cls(rows, own, shared)
 
-    def blocks(self, Cs: np.ndarray, c: np.ndarray | None = None):
-        """A (n, k, 3, 2) and B (n, k, 3, s) of C_s (n, m, ns); with c (n, m), B is followed by the column
-        c_k (n, k, 3, s + 1): one matrix product then gives both the coupling and the right-hand side."""
-        A = Cs[:, self.rows[:, :, None], self.own[:, None, :]]
-        B = Cs[:, self.rows[:, :, None], self.shared[None, None, :]]
-        if c is not None:
-            B = np.concatenate([B, c[:, self.rows, None]], axis=-1)
-        return A, B
+    def blocks(self, Cs: np.ndarray, c: np.ndarray | None = None) -> np.ndarray:
+        """[A | B] (n, k, 3, 2 + s) of C_s (n, m, ns): closure k's rows on its own and on the shared coordinates;
+        with c (n, m), followed by the column c_k (n, k, 3, 3 + s): one matrix product then gives both the
+        coupling and the right-hand side."""
+        if c is None:
+            return Cs[:, self.rows[:, :, None], self.columns[:, None, :]]
+        out = np.empty((len(Cs), self.k, 3, self.columns.shape[1] + 1))
+        out[..., :-1] = Cs[:, self.rows[:, :, None], self.columns[:, None, :]]
+        out[..., -1] = c[:, self.rows]
+        return out
 
     def _square_parts(self, A: np.ndarray):
         """The normals n_k = a1 x a2 (n, k, 3) and P (n, k, 2, 3), the left inverses of A (n, k, 3, 2)."""
@@ -81,7 +84,8 @@ class PointArrow:
 
     def newton_step(self, Cs: np.ndarray, c: np.ndarray) -> np.ndarray:
         """-C_s^-1 c (n, ns); raises numpy's LinAlgError where S is singular."""
-        A, Bc = self.blocks(Cs, c)
+        AB = self.blocks(Cs, c)
+        A, Bc = AB[..., :OWN], AB[..., OWN:]
         normal, P = self._square_parts(A)
         s = self.k
         St = (normal[..., None, :] @ Bc)[..., 0, :]                 # (n, k, s + 1): [S | n_k^T c_k]
@@ -91,10 +95,11 @@ class PointArrow:
 
     def damped_step(self, Cs: np.ndarray, c: np.ndarray, mu: np.ndarray) -> np.ndarray:
         """-(C_s^T C_s + mu I)^-1 C_s^T c (n, ns) through the Schur complement on the shared coordinates."""
-        A, Bc = self.blocks(Cs, c)
+        AB = self.blocks(Cs, c)
         n, s = len(Cs), self.k
-        At = np.swapaxes(A, -1, -2)
-        M = At @ A                                                  # (n, k, 2, 2) + mu I, inverted in closed form
+        Bc = AB[..., OWN:]
+        products = np.swapaxes(AB[..., :OWN], -1, -2) @ AB        # (n, k, 2, 2 + s + 1): A^T [A | B | c]
+        M = products[..., :OWN]                                     # A^T A (n, k, 2, 2) + mu I, inverted in closed form
         M[..., 0, 0] += mu[:, None]
         M[..., 1, 1] += mu[:, None]
         det = M[..., 0, 0] * M[..., 1, 1] - M[..., 0, 1] * M[..., 1, 0]
@@ -102,9 +107,9 @@ class PointArrow:
         Minv[..., 0, 0], Minv[..., 1, 1] = M[..., 1, 1], M[..., 0, 0]
         Minv[..., 0, 1], Minv[..., 1, 0] = -M[..., 0, 1], -M[..., 1, 0]
         Minv /= det[..., None, None]
-        coupling = At @ Bc                                          # (n, k, 2, s + 1): [A^T B | A^T c]
+        coupling = products[..., OWN:]                              # (n, k, 2, s + 1): [A^T B | A^T c]
         solved = Minv @ coupling
-        Bf, Cf = Bc.reshape(n, 3 * s, s + 1), coupling.reshape(n, 2 * s, s + 1)
+        Bf, Cf = Bc.reshape(n, 3 * s, s + 1), np.ascontiguousarray(coupling).reshape(n, 2 * s, s + 1)
         T = np.swapaxes(Bf, 1, 2) @ Bf - np.swapaxes(Cf, 1, 2) @ solved.reshape(n, 2 * s, s + 1)
         S = T[:, :s, :s]
         S[:, np.arange(s), np.arange(s)] += mu[:, None]
@@ -115,7 +120,8 @@ class PointArrow:
     def inverse(self, Cs: np.ndarray) -> np.ndarray:
         """C_s^-1 (n, ns, m); raises numpy's LinAlgError where S is singular.
         Shared rows H = S^-1 N (N: n_k^T on closure k's rows), own rows of closure k P_k (E_k - B_k H)."""
-        A, B = self.blocks(Cs)
+        AB = self.blocks(Cs)
+        A, B = AB[..., :OWN], AB[..., OWN:]
         normal, P = self._square_parts(A)
         n, k, m = len(Cs), self.k, 3 * self.k
         S = (normal[..., None, :] @ B)[..., 0, :]
