@@ -1,6 +1,7 @@
 """Closed chains: microseconds per sample per residual-and-Jacobian pass, Stewart 6-6 through its URDF loop constraints.
 
 Run:  OMP_NUM_THREADS=1 python benchmarks/closed_chain.py [--samples 1000] [--repeats 3] [--profile]
+(from a worktree other than the installed checkout, with PYTHONPATH=. so that this tree's robocal is measured)
 
 Prints one table, every figure measured in this process, one thread:
   (a) the per-sample path (robocal.model.kinematics.SampleState: damped Newton assembly and implicit-function
@@ -137,6 +138,7 @@ def pinocchio_floor(robot, q: np.ndarray, repeats: int) -> tuple[float, float]:
 PHASES = {("closed_chain_batch.py", "__init__"): "whole batched assembly and sensitivities",
           ("closure_groups.py", "closure_state"): "  closure evaluations (FK, rows, C_s)",
           ("closed_chain_batch.py", "_assemble"): "  assembly: evaluations + damped Newton steps",
+          ("closed_chain_batch.py", "_step"): "    Newton steps (6-UPS: block elimination)",
           ("closed_chain_batch.py", "_solver"): "  C_s^-1 and the regularity check",
           ("closed_chain_batch.py", "_parameter_rows"): "  C_theta (closure rows per parameter)",
           ("closed_chain_batch.py", "frame"): "frame poses and Jacobians",
