@@ -12,6 +12,8 @@ closure_arrays gives the closure rows):
   reached and the errors raised are those of the per-sample path;
 - sensitivities: C_s dq_s = -C_theta dtheta with C_s = dc/dv on the solved coordinates, one inverse per
   sample (normal equations when there are more rows than unknowns: the least-squares solution lstsq gives);
+- a 6-UPS C_s (each point closure owning two coordinates plus the shared platform's) is eliminated leg by leg
+  for the steps and the inverse (robocal.model.point_closure_solve), the dense LU otherwise;
 - a frame's parameter Jacobian is its tree Jacobian plus its solved-joint columns times dq_s/dtheta.
 
 World twists are the working form: a joint's placement twist acts through Ad(oMi[parent] jointPlacement),
