@@ -18,9 +18,11 @@ from robocal.errors import AssemblyError
 from robocal.estimation.problem import Problem
 from robocal.model.closed_chain_batch import supports_closed_batch
 from robocal.model.closure_arrays import closure_arrays, hinge_bases
+from robocal.model.closure_groups import closure_groups, closure_state
 from robocal.model.kinematics import ModelState
 from robocal.model.loop_rows import Closure, closure_rows
 from robocal.model.parameters import ParameterSet, offset_parameter, placement_parameters
+from robocal.model.point_closure_solve import PointArrow
 from robocal.model.tree_arrays import TreeArrays
 from robocal.residuals import PointResidual, PoseResidual
 from robocal.systems.stewart.mechanism import StewartGeometry, inverse_kinematics_batch, random_workspace_poses
@@ -231,3 +233,59 @@ def test_closure_arrays_match_closure_rows(kind):
     for i in range(5):
         ck, d1, d2 = closure_rows(closure, M1[i], M2[i])
         assert max(np.abs(c[i] - ck).max(), np.abs(D1[i] - d1).max(), np.abs(D2[i] - d2).max()) < 1e-13
+
+
+def _closure_jacobians(robot, n, seed):
+    """c and C_s of the robot's closures at n random configurations (closed or not: the structure is the same)."""
+    rng, model, loops = np.random.default_rng(seed), robot.model, robot.loops
+    tree = TreeArrays(model)
+    groups = closure_groups(model, loops, tree)
+    q = np.array([pin.integrate(model, pin.neutral(model), rng.normal(0, 0.2, model.nv)) for _ in range(n)])
+    st = closure_state(tree, groups, loops.n_rows, loops.solved_v, q)
+    return groups, st["c"], st["Cs"]
+
+
+def test_stewart_block_elimination_matches_dense_lu():
+    """C_s of a 6-UPS eliminated leg by leg (PointArrow) against numpy's LU: the inverse, the Newton step and the
+    damped step (C_s^T C_s + mu I)^-1 C_s^T c. Both are backward-stable eliminations, so they differ by
+    ~eps cond(C_s) relative (cond for the normal matrix of the damped step: cond^2); 100 eps times that bounds it
+    with room for the few hundred operations, and a wrong block or sign is O(1)."""
+    robot = robocal.load_urdf(URDF / "stewart_6_6.urdf")
+    groups, c, Cs = _closure_jacobians(robot, 20, seed=5)
+    arrow = PointArrow.from_groups(groups, robot.loops.n_rows, len(robot.loops.solved_v))
+    assert arrow is not None and arrow.own.shape == (6, 2) and len(arrow.shared) == 6
+    cond = np.linalg.cond(Cs).max()
+    eps = np.finfo(float).eps
+    inverse = np.linalg.inv(Cs)
+    assert _relative(arrow.inverse(Cs), inverse) < 100 * eps * cond
+    newton = -np.linalg.solve(Cs, c[..., None])[..., 0]
+    assert _relative(arrow.newton_step(Cs, c), newton) < 100 * eps * cond
+    mu = np.einsum("ni,ni->n", c, c)
+    normal = np.swapaxes(Cs, 1, 2) @ Cs + mu[:, None, None] * np.eye(Cs.shape[2])
+    damped = -np.linalg.solve(normal, np.einsum("nmi,nm->ni", Cs, c)[..., None])[..., 0]
+    assert _relative(arrow.damped_step(Cs, c, mu), damped) < 100 * eps * cond ** 2
+
+
+def test_block_elimination_reports_breakdown_and_other_structures_stay_dense(tmp_path):
+    """A leg whose two own columns are parallel (no normal: S has a zero row) or a platform coordinate that moves
+    no closure makes the elimination raise (the caller then takes the dense LU and its singularity check); the
+    linkage's revolute and distance closures have no such structure (None: dense path)."""
+    robot = robocal.load_urdf(URDF / "stewart_6_6.urdf")
+    groups, c, Cs = _closure_jacobians(robot, 3, seed=6)
+    arrow = PointArrow.from_groups(groups, robot.loops.n_rows, len(robot.loops.solved_v))
+    parallel = Cs.copy()
+    parallel[0][np.ix_(arrow.rows[1], arrow.own[1])] = parallel[0][arrow.rows[1], arrow.own[1][0]][:, None]
+    flat = Cs.copy()
+    flat[:, :, arrow.shared[0]] = 0.0      # the platform's first coordinate moves no closure: S singular
+    for broken in (parallel, flat):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            with pytest.raises(np.linalg.LinAlgError):
+                arrow.inverse(broken)
+            with pytest.raises(np.linalg.LinAlgError):
+                arrow.newton_step(broken, c)
+    assert np.isfinite(arrow.inverse(Cs)).all()
+    path = tmp_path / "linkage.urdf"
+    path.write_text(LINKAGE)
+    linkage = robocal.load_urdf(path)
+    groups = closure_groups(linkage.model, linkage.loops, TreeArrays(linkage.model))
+    assert PointArrow.from_groups(groups, linkage.loops.n_rows, len(linkage.loops.solved_v)) is None

@@ -12,6 +12,8 @@ closure_arrays gives the closure rows):
   reached and the errors raised are those of the per-sample path;
 - sensitivities: C_s dq_s = -C_theta dtheta with C_s = dc/dv on the solved coordinates, one inverse per
   sample (normal equations when there are more rows than unknowns: the least-squares solution lstsq gives);
+- a 6-UPS C_s (each point closure owning two coordinates plus the shared platform's) is eliminated leg by leg
+  for the steps and the inverse (robocal.model.point_closure_solve), the dense LU otherwise;
 - a frame's parameter Jacobian is its tree Jacobian plus its solved-joint columns times dq_s/dtheta.
 
 World twists are the working form: a joint's placement twist acts through Ad(oMi[parent] jointPlacement),
@@ -29,6 +31,7 @@ from robocal.model.batch_kinematics import FrameArrays
 from robocal.model.closure_groups import closure_groups, closure_state, parameter_rows, with_placements
 from robocal.model.lie_arrays import adjoint_inverse
 from robocal.model.loops import assemble
+from robocal.model.point_closure_solve import PointArrow
 from robocal.model.tree_arrays import TreeArrays, supports_tree_arrays
 from robocal.model.tree_twists import TreeTwists
 
@@ -62,8 +65,10 @@ class ClosedChainBatch:
         if cache.get("robot") is not ms.robot or cache.get("loops") is not ms.loops:
             # what does not change between passes of one problem: the tree's and the closures' structure
             tree = TreeArrays(ms.model)
-            cache.update(robot=ms.robot, loops=ms.loops, tree=tree,
-                         groups=closure_groups(ms.model, ms.loops, tree))
+            groups = closure_groups(ms.model, ms.loops, tree)
+            cache.update(robot=ms.robot, loops=ms.loops, tree=tree, groups=groups,
+                         arrow=PointArrow.from_groups(groups, ms.loops.n_rows, len(ms.loops.solved_v)))
+        self.arrow = cache["arrow"]     # C_s's block structure when it has one (6-UPS): eliminated, no 18 x 18 LU
         self.tree = cache["tree"].at_placements(ms.model)
         self.solved = self.loops.solved_v
         # the samples assembled (all by default): as the per-sample path, only those a residual looks at
@@ -134,7 +139,7 @@ class ClosedChainBatch:
         """(q, closure state) of the samples `block`: damped Newton steps on all of them at once."""
         actuated = self.actuated[block]
         q = self._set_actuated(guesses, actuated)
-        n, ns = len(q), len(self.solved)
+        n = len(q)
         state = None
         moving, failed = np.ones(n, dtype=bool), np.zeros(n, dtype=bool)
         last_cost = np.full(n, np.inf)
@@ -153,14 +158,7 @@ class ClosedChainBatch:
             if keep.all():       # no copies while every sample still moves
                 keep = slice(None)
             A, r, mu = sub["Cs"][keep], sub["c"][keep], cost[keep]
-            if A.shape[1] == ns and mu.max() < NEGLIGIBLE_DAMPING:
-                # mu = |c|^2 < 1e-20: the damped step differs from the Newton step -C_s^-1 c by mu / s_min^2 of
-                # itself, ~1e-25 m or rad for a Stewart platform's C_s (s_min ~ 0.1): solve C_s directly
-                step = -np.linalg.solve(A, r[:, :, None])[:, :, 0]
-            else:
-                normal = np.swapaxes(A, 1, 2) @ A
-                normal[:, np.arange(ns), np.arange(ns)] += mu[:, None]
-                step = -np.linalg.solve(normal, np.einsum("nmi,nm->ni", A, r)[:, :, None])[:, :, 0]
+            step = self._step(A, r, mu)
             go = idx[keep]
             last_cost[go] = mu
             v = np.zeros((len(go), self.model.nv))
@@ -176,17 +174,53 @@ class ClosedChainBatch:
             state = _scatter(state, self._state(q[idx]), idx)
         return q, state
 
+    def _step(self, A: np.ndarray, r: np.ndarray, mu: np.ndarray) -> np.ndarray:
+        """damped_newton's step -(A^T A + mu I)^-1 A^T r (mu = |r|^2) for the stack; the plain Newton step once mu
+        is negligible. Through C_s's block structure when it has one (the dense LU where its eliminations break
+        down: a singular block or S)."""
+        ns = A.shape[2]
+        plain = A.shape[1] == ns and mu.max() < NEGLIGIBLE_DAMPING
+        if self.arrow is not None:
+            with np.errstate(divide="ignore", invalid="ignore"):
+                try:
+                    step = self.arrow.newton_step(A, r) if plain else self.arrow.damped_step(A, r, mu)
+                except np.linalg.LinAlgError:
+                    step = None
+            if step is not None and np.isfinite(step).all():
+                return step
+        if plain:
+            # mu = |c|^2 < 1e-20: the damped step differs from the Newton step -C_s^-1 c by mu / s_min^2 of
+            # itself, ~1e-25 m or rad for a Stewart platform's C_s (s_min ~ 0.1): solve C_s directly
+            return -np.linalg.solve(A, r[:, :, None])[:, :, 0]
+        normal = np.swapaxes(A, 1, 2) @ A
+        normal[:, np.arange(ns), np.arange(ns)] += mu[:, None]
+        return -np.linalg.solve(normal, np.einsum("nmi,nm->ni", A, r)[:, :, None])[:, :, 0]
+
+    def _inverse(self, A: np.ndarray):
+        """A^-1 for the stack (through C_s's block structure when it has one: square C_s only), None where the
+        LU breaks down."""
+        if self.arrow is not None:
+            with np.errstate(divide="ignore", invalid="ignore"):
+                try:
+                    inv = self.arrow.inverse(A)
+                except np.linalg.LinAlgError:
+                    inv = None
+            if inv is not None and np.isfinite(inv).all():
+                return inv
+        try:
+            return np.linalg.inv(A)
+        except np.linalg.LinAlgError:
+            return None
+
     def _solver(self, Cs: np.ndarray, labels: np.ndarray) -> np.ndarray:
         """(n, n_solved, m): C_s^-1, or (C_s^T C_s)^-1 C_s^T with more rows than unknowns (lstsq's solution);
         raises AssemblyError where C_s is singular, as `assemble` does (exact check on the samples whose
         norm bound on s_min / s_max falls below the threshold; `labels`: the block's sample indices)."""
         square = Cs.shape[1] == Cs.shape[2]
         A = Cs if square else np.swapaxes(Cs, 1, 2) @ Cs
-        try:
-            inv = np.linalg.inv(A)
-            bound = 1.0 / (np.linalg.norm(A, axis=(1, 2)) * np.linalg.norm(inv, axis=(1, 2)))
-        except np.linalg.LinAlgError:
-            inv, bound = None, np.zeros(len(A))
+        inv = self._inverse(A)
+        bound = (1.0 / (np.linalg.norm(A, axis=(1, 2)) * np.linalg.norm(inv, axis=(1, 2))) if inv is not None
+                 else np.zeros(len(A)))
         ratio_bound = bound if square else np.sqrt(bound)       # <= s_min / s_max of C_s
         for i in np.flatnonzero(~(ratio_bound >= SINGULAR_RCOND)):
             s = np.linalg.svd(Cs[i], compute_uv=False)
@@ -247,11 +281,11 @@ class ClosedChainBatch:
             return FrameArrays(R, p, R0, p0, None, np.eye(6))
         moving = np.flatnonzero(np.isin(self.solved, self.tree.support_v[f.parentJoint]))   # solved coordinates
         _, supports = self.twists.pairs([f.parentJoint])
-        pieces = []
+        J = np.zeros((len(samples), 6, ms.n_free))      # filled block by block (no concatenation)
         for start in range(0, len(samples), CHUNK):
             block = slice(start, min(start + CHUNK, len(samples)))
             s = samples[block]
-            Jb = np.zeros((len(s), 6, ms.n_free))
+            Jb = J[block]
             to_local = adjoint_inverse(R0[block], p0[block])
             if len(moving):     # the frame's solved joints' columns times their rows of C_s^-1
                 Y = (to_local @ self._take("W", s)[:, :, moving]) @ self._take("solver", s)[:, moving]
@@ -263,8 +297,6 @@ class ClosedChainBatch:
                     Jb[..., self.twists.columns[a][real]] += (to_local @ G[:, a])[..., real]
             if ms.has_base_params:
                 Jb += to_local @ ms.P_base
-            pieces.append(Jb)
-        J = np.concatenate(pieces) if len(pieces) > 1 else pieces[0] if pieces else np.zeros((0, 6, ms.n_free))
         if fid in ms.P_frame:
             J += ms.P_frame[fid]
         return FrameArrays(R, p, R0, p0, J, np.eye(6))

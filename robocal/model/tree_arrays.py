@@ -31,11 +31,18 @@ def supports_tree_arrays(model: pin.Model) -> bool:
     return all(j.shortname() in KINDS for j in list(model.joints)[1:])
 
 
-def cross(a: np.ndarray, b: np.ndarray, axis: int = -1) -> np.ndarray:
-    """a x b along `axis` (np.cross without its axis juggling, which dominates on small stacks)."""
-    a0, a1, a2 = (np.take(a, i, axis=axis) for i in range(3))
-    b0, b1, b2 = (np.take(b, i, axis=axis) for i in range(3))
-    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=axis)
+def cross(a: np.ndarray, b: np.ndarray, axis: int = -1, out: np.ndarray | None = None) -> np.ndarray:
+    """a x b along `axis` (np.cross without its axis juggling, which dominates on small stacks); the components
+    are views and the products are written into the result (no copies of strided inputs), or into `out`."""
+    def at(i):
+        return (Ellipsis, i) + (slice(None),) * (-axis - 1) if axis < 0 else (slice(None),) * axis + (i,)
+    a0, a1, a2 = a[at(0)], a[at(1)], a[at(2)]
+    b0, b1, b2 = b[at(0)], b[at(1)], b[at(2)]
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape)) if out is None else out
+    for i, (x, y, u, v) in enumerate(((a1, b2, a2, b1), (a2, b0, a0, b2), (a0, b1, a1, b0))):
+        np.multiply(x, y, out=out[at(i)])
+        out[at(i)] -= u * v
+    return out
 
 
 def quaternion_matrices(quat: np.ndarray) -> np.ndarray:
@@ -220,7 +227,9 @@ class TreeArrays:
             other = np.flatnonzero(~aligned)
             d[:, other] = np.einsum("nkij,kj->nki", R[:, j[other]], self.axis[j[other]])
         out = np.empty((len(R), len(columns), 6))
-        out[:, :, :3] = np.where(turning[:, None], cross(p[:, j], d), d)
+        cross(p[:, j], d, out=out[:, :, :3])
+        if not turning.all():
+            out[:, ~turning, :3] = d[:, ~turning]
         out[:, :, 3:] = d * turning[:, None]
         return np.swapaxes(out, 1, 2)
 
