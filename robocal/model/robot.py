@@ -119,6 +119,7 @@ class Robot:
         frame = pin.Frame(name, pf.parentJoint, pid, pf.placement * placement, pin.FrameType.OP_FRAME)
         self.extra_frames[name] = (parent, placement.copy())
         self.__dict__.pop("_frame_ids", None)
+        self.__dict__.pop("_moved_with", None)
         return self.model.addFrame(frame, False)
 
     def frames_moved_with(self, frame) -> list[tuple[int, pin.SE3]]:
@@ -130,9 +131,13 @@ class Robot:
         Returns [(frame id, nominal placement of it relative to `frame`)].
         """
         fid = frame if isinstance(frame, int) else self.frame_id(frame)
+        cache = self.__dict__.setdefault("_moved_with", {})      # structure only: add_frame clears it
+        key = ("frames", fid, self.model.nframes)
+        if key in cache:
+            return cache[key]
         frames = self.model.frames
         base = frames[fid].placement
-        out = []
+        out = cache[key] = []
         for g, f in enumerate(frames):
             k, below = g, False
             while k != 0 and frames[k].parentJoint == frames[fid].parentJoint:
@@ -150,8 +155,12 @@ class Robot:
         """Movable joints whose origin Pinocchio measures through `frame` (a fixed-joint link), and the
         nominal placement of each relative to it; calibrating the frame moves them too."""
         fid = frame if isinstance(frame, int) else self.frame_id(frame)
+        cache = self.__dict__.setdefault("_moved_with", {})
+        key = ("joints", fid, self.model.nframes)
+        if key in cache:
+            return cache[key]
         frames, m = self.model.frames, self.model
-        out = []
+        out = cache[key] = []
         for k in range(1, m.njoints):
             if m.parents[k] != frames[fid].parentJoint or not m.existFrame(m.names[k], pin.FrameType.JOINT):
                 continue
