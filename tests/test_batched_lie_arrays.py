@@ -9,7 +9,7 @@ import pinocchio as pin
 
 from robocal.model import lie_arrays
 from robocal.residuals.base import point_jacobian
-from robocal.residuals.pose import quaternion_matrices
+from robocal.model.lie_arrays import quaternion_matrices
 
 ANGLES = [0.0, 1e-12, 1e-8, 5e-6, 6.0e-6, 1.2e-4, 1.3e-4, 1e-3, 0.5, 2.0, 3.0, np.pi - 1e-3, np.pi - 1e-7, np.pi]
 
@@ -44,3 +44,14 @@ def test_adjoint_inverse_point_jacobian_and_quaternions_match_pinocchio():
         assert np.abs(P[k] - point_jacobian(M, x)).max() < 1e-14
     q = np.array([pin.Quaternion(M.rotation).coeffs() for M in poses])
     assert np.abs(quaternion_matrices(q) - R).max() < 1e-14
+
+
+def test_quaternions_equal_pinocchio_signs_included():
+    """Every branch of Eigen's rule (positive trace; each axis leading), half turns and the identity."""
+    rng = np.random.default_rng(4)
+    Rs = [pin.exp3(rng.normal(0, 2, 3)) for _ in range(500)]
+    Rs += [pin.exp3(np.pi * a) for a in np.eye(3)] + [np.eye(3)]
+    Rs += [pin.exp3(0.999 * np.pi * v / np.linalg.norm(v)) for v in rng.normal(size=(30, 3))]
+    R = np.array(Rs)
+    ref = np.array([pin.Quaternion(r).coeffs() for r in R])
+    assert np.abs(lie_arrays.quaternions(R) - ref).max() < 1e-15

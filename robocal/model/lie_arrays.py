@@ -93,3 +93,44 @@ def adjoint_inverse(R: np.ndarray, p: np.ndarray) -> np.ndarray:
     out[..., 3:, 3:] = Rt
     out[..., :3, 3:] = -Rt @ skew(p)      # [-R^T p]x R^T = -R^T [p]x
     return out
+
+
+def quaternions(R: np.ndarray) -> np.ndarray:
+    """(n, 4) unit quaternions (x, y, z, w) of a stack of rotations, by the branch rule of Eigen's
+    Quaternion(R) (Pinocchio's pin.Quaternion), so signs agree with it."""
+    R = np.asarray(R, float)
+    n = len(R)
+    q = np.empty((n, 4))
+    tr = np.trace(R, axis1=-2, axis2=-1)
+    pos = tr > 0
+    t = np.sqrt(tr[pos] + 1.0)
+    h = 0.5 / t
+    Rp = R[pos]
+    q[pos] = np.column_stack([(Rp[:, 2, 1] - Rp[:, 1, 2]) * h, (Rp[:, 0, 2] - Rp[:, 2, 0]) * h,
+                              (Rp[:, 1, 0] - Rp[:, 0, 1]) * h, 0.5 * t])
+    d = np.diagonal(R, axis1=-2, axis2=-1)
+    i = np.where(d[:, 1] > d[:, 0], 1, 0)
+    i = np.where(d[:, 2] > d[np.arange(n), i], 2, i)
+    for k in range(3):                   # the largest diagonal entry's axis leads, as in Eigen
+        rows = np.flatnonzero(~pos & (i == k))
+        if len(rows) == 0:
+            continue
+        j, m = (k + 1) % 3, (k + 2) % 3
+        Rk = R[rows]
+        t = np.sqrt(Rk[:, k, k] - Rk[:, j, j] - Rk[:, m, m] + 1.0)
+        h = 0.5 / t
+        q[rows, k] = 0.5 * t
+        q[rows, 3] = (Rk[:, m, j] - Rk[:, j, m]) * h
+        q[rows, j] = (Rk[:, j, k] + Rk[:, k, j]) * h
+        q[rows, m] = (Rk[:, m, k] + Rk[:, k, m]) * h
+    return q
+
+
+def quaternion_matrices(q: np.ndarray) -> np.ndarray:
+    """(n, 3, 3) rotation matrices of unit quaternions (n, 4), x y z w (Pinocchio's toRotationMatrix)."""
+    x, y, z, w = q.T
+    out = np.empty((len(q), 3, 3))
+    out[:, 0, 0], out[:, 0, 1], out[:, 0, 2] = 1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)
+    out[:, 1, 0], out[:, 1, 1], out[:, 1, 2] = 2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)
+    out[:, 2, 0], out[:, 2, 1], out[:, 2, 2] = 2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)
+    return out

@@ -18,7 +18,7 @@ import copy
 import numpy as np
 import pinocchio as pin
 
-from robocal.model.lie_arrays import skew
+from robocal.model.lie_arrays import quaternion_matrices, skew
 
 KINDS = {**{f"JointModelR{a}": "revolute" for a in "XYZ"}, "JointModelRevoluteUnaligned": "revolute",
          **{f"JointModelRUB{a}": "continuous" for a in "XYZ"}, "JointModelRevoluteUnboundedUnaligned": "continuous",
@@ -44,15 +44,6 @@ def cross(a: np.ndarray, b: np.ndarray, axis: int = -1, out: np.ndarray | None =
         out[at(i)] -= u * v
     return out
 
-
-def quaternion_matrices(quat: np.ndarray) -> np.ndarray:
-    """(n, 3, 3) rotations of quaternions (n, 4), x y z w, as Eigen's toRotationMatrix."""
-    x, y, z, w = quat[:, 0], quat[:, 1], quat[:, 2], quat[:, 3]
-    out = np.empty((len(quat), 3, 3))
-    out[:, 0, 0], out[:, 0, 1], out[:, 0, 2] = 1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)
-    out[:, 1, 0], out[:, 1, 1], out[:, 1, 2] = 2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)
-    out[:, 2, 0], out[:, 2, 1], out[:, 2, 2] = 2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)
-    return out
 
 
 def quaternion_step(quat: np.ndarray, w: np.ndarray) -> np.ndarray:

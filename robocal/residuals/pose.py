@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from robocal.model.lie_arrays import jlog3, log3, transpose
+from robocal.model.lie_arrays import jlog3, log3, quaternion_matrices, transpose
 from robocal.residuals.base import BatchTerms, Residual, Term
 
 
@@ -66,13 +66,3 @@ class PoseResidual(Residual):
 def pose_row(M: pin.SE3) -> np.ndarray:
     """x y z qx qy qz qw of a pose."""
     return np.concatenate([M.translation, pin.Quaternion(M.rotation).coeffs()])
-
-
-def quaternion_matrices(q: np.ndarray) -> np.ndarray:
-    """(n, 3, 3) rotation matrices of unit quaternions (n, 4), x y z w (Pinocchio's toRotationMatrix)."""
-    x, y, z, w = q.T
-    out = np.empty((len(q), 3, 3))
-    out[:, 0, 0], out[:, 0, 1], out[:, 0, 2] = 1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)
-    out[:, 1, 0], out[:, 1, 1], out[:, 1, 2] = 2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)
-    out[:, 2, 0], out[:, 2, 1], out[:, 2, 2] = 2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)
-    return out

@@ -10,8 +10,9 @@ the fit) on every sample and records, in SI units:
     blocks also hold the measured and predicted orientations;
   - the identification Jacobian's singular values and the rank the base-parameter selection kept.
 
-Poses come only from `SampleState.pose(frame)`, so a closed-chain machine (whose SampleState assembles its
-loops) is recorded exactly like a serial arm. Nothing here loads meshes: the viewer does that.
+Poses of a serial robot come from the batched kinematics (robocal.model.batch_kinematics, all samples at
+once); any other robot's from `SampleState.pose(frame)`, so a closed-chain machine (whose SampleState
+assembles its loops) is recorded exactly like a serial arm. Nothing here loads meshes: the viewer does that.
 Version 2 added the skeleton and `terms`; `read_scene` fills both in for a version-1 file.
 """
 from __future__ import annotations
@@ -24,7 +25,9 @@ import numpy as np
 import pinocchio as pin
 
 from robocal.errors import InputError
+from robocal.model.batch_kinematics import BatchKinematics, supports_batch
 from robocal.model.kinematics import ModelState
+from robocal.model.lie_arrays import quaternions
 from robocal.estimation.problem import LazyStates
 from robocal.residuals.base import tilted_direction
 from robocal.viz.skeleton_layout import skeleton, skeleton_from_links
@@ -198,8 +201,7 @@ def scene_data(problem, result, params_before, ident: dict | None = None) -> dic
     for ms in models.values():            # closed chains: assemble from the fit's last solutions
         ms.warm_starts = dict(problem.warm_starts)
     states = {s: LazyStates(ms, problem.values, problem.directions) for s, ms in models.items()}
-    n = len(problem.values)
-    poses = {s: [[_pose7(states[s][i].pose(f)) for f in frame_names] for i in range(n)] for s in STATES}
+    poses = {s: frame_poses(problem, models[s], states[s], frame_names) for s in STATES}
     return {
         "format": FORMAT, "version": VERSION, "units": "SI (m, rad)",
         "robot": {"name": robot.name, "urdf_path": str(robot.urdf_path) if robot.urdf_path else None,
@@ -213,6 +215,20 @@ def scene_data(problem, result, params_before, ident: dict | None = None) -> dic
         "blocks": [_block(res, states, param_sets) for res in problem.residuals],
         "identification": ident if ident is not None else identification(result),
     }
+
+
+def frame_poses(problem, ms: ModelState, states: LazyStates, frame_names: list[str]) -> list:
+    """[sample][frame] -> [x, y, z, qx, qy, qz, qw] world poses: all samples at once for a serial robot
+    (robocal.model.batch_kinematics), else sample by sample (closed chains assemble their loops there)."""
+    n = len(problem.values)
+    if not supports_batch(ms):
+        return [[_pose7(states[i].pose(f)) for f in frame_names] for i in range(n)]
+    batch = BatchKinematics(ms, problem.sample_constants(ms), problem.values, problem.directions)
+    out = np.empty((n, len(frame_names), 7))
+    for k, f in enumerate(frame_names):
+        fa = batch.frame(f, np.arange(n), jacobian=False)
+        out[:, k, :3], out[:, k, 3:] = fa.p, quaternions(fa.R)
+    return out.tolist()
 
 
 def scene_bytes(problem, result, params_before) -> bytes:
