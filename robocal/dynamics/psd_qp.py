@@ -21,7 +21,7 @@ import clarabel
 import numpy as np
 import scipy.sparse as sp
 
-from robocal.dynamics.inertial import params_from_pseudo_inertia, pseudo_inertia
+from robocal.dynamics.inertial import is_physically_consistent, params_from_pseudo_inertia, pseudo_inertia
 from robocal.errors import RobocalError
 
 #: upper triangle of a 4x4 matrix stacked by columns: Clarabel's order for its PSD triangle cone
@@ -101,10 +101,9 @@ def unconstrained_if_feasible(H: np.ndarray, q: np.ndarray, n_bodies: int, lower
     n_in = 10 * n_bodies
     if not np.all(np.isfinite(x)) or np.any(x[n_in:] < lower):
         return None
-    for b in range(n_bodies):
-        eig = np.linalg.eigvalsh(pseudo_inertia(x[10 * b:10 * b + 10]))
-        if eig[0] < 0:
-            return None
+    # strict (rtol 0): this point is returned without the projection the solver's answer gets
+    if not all(is_physically_consistent(x[10 * b:10 * b + 10], rtol=0.0) for b in range(n_bodies)):
+        return None
     return x
 
 
