@@ -31,16 +31,18 @@ def test_log3_and_jlog3_match_pinocchio_on_every_branch():
         assert np.abs(J[k] - pin.Jlog3(Rk)).max() <= 4 * np.finfo(float).eps * 4.0, ANGLES[k]
 
 
-def test_adjoint_inverse_point_jacobian_and_quaternions_match_pinocchio():
+def test_adjoints_point_jacobian_and_quaternions_match_pinocchio():
     rng = np.random.default_rng(2)
     poses = [pin.SE3.Random() for _ in range(5)]
     R = np.array([M.rotation for M in poses])
     p = np.array([M.translation for M in poses])
     A = lie_arrays.adjoint_inverse(R, p)
+    Ad = lie_arrays.adjoint(R, p)
     x = rng.normal(size=3)
     P = lie_arrays.point_jacobian(R, x)
     for k, M in enumerate(poses):
         assert np.abs(A[k] - M.inverse().toActionMatrix()).max() < 1e-14
+        assert np.abs(Ad[k] - M.toActionMatrix()).max() < 1e-14
         assert np.abs(P[k] - point_jacobian(M, x)).max() < 1e-14
     q = np.array([pin.Quaternion(M.rotation).coeffs() for M in poses])
     assert np.abs(quaternion_matrices(q) - R).max() < 1e-14

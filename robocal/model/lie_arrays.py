@@ -85,6 +85,15 @@ def point_jacobian(R: np.ndarray, x_local: np.ndarray) -> np.ndarray:
     return out
 
 
+def adjoint(R: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """(..., 6, 6) action matrices of the poses (R, p), twist order [v; w]."""
+    out = np.zeros(R.shape[:-2] + (6, 6))
+    out[..., :3, :3] = R
+    out[..., 3:, 3:] = R
+    out[..., :3, 3:] = skew(p) @ R
+    return out
+
+
 def adjoint_inverse(R: np.ndarray, p: np.ndarray) -> np.ndarray:
     """(n, 6, 6) action matrices of the inverses of the poses (R, p) (Pinocchio's twist order v, w)."""
     Rt = transpose(R)

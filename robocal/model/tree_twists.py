@@ -11,17 +11,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from robocal.model.lie_arrays import skew
+from robocal.model.lie_arrays import adjoint
 from robocal.model.tree_arrays import TreeArrays
 
-
-def adjoint(R: np.ndarray, p: np.ndarray) -> np.ndarray:
-    """(..., 6, 6) action matrices of the poses (R, p), twist order [v; w]."""
-    out = np.zeros(R.shape[:-2] + (6, 6))
-    out[..., :3, :3] = R
-    out[..., 3:, 3:] = R
-    out[..., :3, 3:] = skew(p) @ R
-    return out
 
 
 class TreeTwists:
