@@ -18,8 +18,8 @@ from robocal.dynamics.generator import PathGenerator
 from robocal.dynamics.instructions import MotionParams, movelf
 from robocal.dynamics.inverse_kinematics import solve_ik
 from robocal.dynamics.simulator import RobotSimulator, servo_gains
+from force_cases import Q0, frame_pose
 
-Q0 = np.array([0.3, -1.2, 1.5, -1.9, -1.5, 0.2])
 TS, K_WALL = 0.004, 2e4
 U = np.array([1.0, 0.0, 0.0])
 ACTUATOR = ActuatorModel([0.12, 0.12, 0.11, 0.09, 0.09, 0.08], gear_ratio=[101] * 6)
@@ -29,9 +29,7 @@ FRICTION = FrictionModel([3, 3, 2, 1, 1, 0.8], viscous=[5, 5, 3, 1, 1, 1], smoot
 @pytest.fixture(scope="module")
 def ur5():
     robot = robocal.load_example("ur5")
-    d = robot.model.createData()
-    pin.framesForwardKinematics(robot.model, d, Q0)
-    return robot, d.oMf[robot.frame_id("tool0")].copy()
+    return robot, frame_pose(robot.model, robot.frame_id("tool0"))
 
 
 @pytest.mark.parametrize("current_bandwidth", [None, 2 * np.pi * 150.0])

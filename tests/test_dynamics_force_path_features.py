@@ -14,8 +14,8 @@ from robocal.dynamics.joint_projection import joint_derivatives
 from robocal.dynamics.limits import project_limits
 from robocal.dynamics.path import LinearPath
 from robocal.errors import InputError
+from force_cases import Q0, frame_pose
 
-Q0 = np.array([0.3, -1.2, 1.5, -1.9, -1.5, 0.2])
 TS = 0.004
 RATIO_TOL = 1 + 1e-12
 
@@ -23,9 +23,7 @@ RATIO_TOL = 1 + 1e-12
 @pytest.fixture(scope="module")
 def ur5():
     robot = robocal.load_example("ur5")
-    d = robot.model.createData()
-    pin.framesForwardKinematics(robot.model, d, Q0)
-    return robot, d.oMf[robot.frame_id("tool0")].copy()
+    return robot, frame_pose(robot.model, robot.frame_id("tool0"))
 
 
 def turning_line(start):

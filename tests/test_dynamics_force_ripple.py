@@ -21,8 +21,8 @@ from robocal.dynamics.friction import FrictionModel
 from robocal.dynamics.generator import PathGenerator
 from robocal.dynamics.instructions import MotionParams, movelf
 from robocal.dynamics.simulator import RobotSimulator, servo_gains
+from force_cases import Q0, frame_pose
 
-Q0 = np.array([0.3, -1.2, 1.5, -1.9, -1.5, 0.2])
 F_DES, TS, L = 20.0, 0.004, 0.2
 U = np.array([1.0, 0.0, 0.0])
 NOISE, LSB = 0.005, 1e-3          # current noise std and quantisation step, A
@@ -39,9 +39,7 @@ def contact_run():
     gains = servo_gains(m, Q0)
     loop = tangent_loop(m, Q0, fid, gains, U, fr, TS)
     admittance = admittance_for_margins(loop, 1e5, ForceFilter(FILTER_HZ, TS), min_stiffness=1e3)
-    d = m.createData()
-    pin.framesForwardKinematics(m, d, Q0)
-    start = d.oMf[fid].copy()
+    start = frame_pose(m, fid)
     env = Environment(Wall(start.translation + 0.03 * U, U, 2e4),
                       Wall(start.translation + 0.001 * np.array([0, 0, 1.0]), [0, 0, -1.0], 1e4))
     sim = RobotSimulator(m, fid, Q0, act, fr, env, gains, TS, current_noise=NOISE, quantisation=LSB, seed=3)
@@ -55,7 +53,7 @@ def contact_run():
         rows.append([sp.force, sp.sd * L, meas.true_wrench[:3] @ U])
     # noise of the unfiltered tangential estimate: F_u = dq^T tau with dq = J^-1 [u; 0], and
     # tau = K (I + n), n white with variance NOISE^2 + LSB^2/12 (quantisation) on each joint
-    J = pin.computeFrameJacobian(m, d, Q0, fid, pin.LOCAL_WORLD_ALIGNED)
+    J = pin.computeFrameJacobian(m, m.createData(), Q0, fid, pin.LOCAL_WORLD_ALIGNED)
     dq = np.linalg.solve(J, np.r_[U, 0, 0, 0])
     sigma_raw = np.linalg.norm(dq @ act.gain) * np.sqrt(NOISE**2 + LSB**2 / 12)
     sigma = sigma_raw * ForceFilter(FILTER_HZ, TS).noise_gain()

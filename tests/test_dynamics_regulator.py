@@ -10,10 +10,10 @@ import pytest
 import robocal
 from robocal.dynamics.generator import PathGenerator
 from robocal.dynamics.instructions import MotionParams, movejf, movelf
+from force_cases import Q0, frame_pose
 
 TS = 0.004
 L = 0.2
-Q0 = np.array([0.3, -1.2, 1.5, -1.9, -1.5, 0.2])
 IK_TOL = 1e-10
 WALL = 0.02          # m along the line: contact after about 0.35 s
 
@@ -25,9 +25,7 @@ def ur5():
 
 def line_generator(robot, force, direction=(1.0, 0.0, 0.0), **params):
     fid = robot.frame_id("tool0")
-    d = robot.model.createData()
-    pin.framesForwardKinematics(robot.model, d, Q0)
-    start = d.oMf[fid].copy()
+    start = frame_pose(robot.model, fid)
     target = pin.SE3(start.rotation, start.translation + L * np.asarray(direction))
     kw = dict(v_max=0.25, a_max=1.0) | params
     ins = movelf(robot.model, fid, Q0, target, MotionParams(**kw), force)

@@ -20,8 +20,8 @@ from robocal.dynamics.friction import FrictionModel
 from robocal.dynamics.generator import PathGenerator
 from robocal.dynamics.instructions import MotionParams, movelf
 from robocal.dynamics.simulator import RobotSimulator, servo_gains
+from force_cases import Q0, frame_pose
 
-Q0 = np.array([0.3, -1.2, 1.5, -1.9, -1.5, 0.2])
 F_DES, V_MAX, A_MAX, L, TS = 20.0, 0.25, 1.0, 0.2, 0.004
 BANDWIDTH = 60.0
 
@@ -35,9 +35,7 @@ def run_s(ur5, source, ticks=1200):
     m, fid = ur5.model, ur5.frame_id("tool0")
     act = ActuatorModel([0.12, 0.12, 0.11, 0.09, 0.09, 0.08], [101] * 6, [0.01, -0.02, 0, 0.03, 0, -0.01])
     fr = FrictionModel([3, 3, 2, 1, 1, 0.8], [5, 5, 3, 1, 1, 1], smoothing=0.01)
-    d = m.createData()
-    pin.framesForwardKinematics(m, d, Q0)
-    start = d.oMf[fid].copy()
+    start = frame_pose(m, fid)
     u = np.array([1.0, 0, 0])
     env = Environment(Wall(start.translation + 0.03 * u, u, 2e4),            # wall across the path
                       Wall(start.translation + 0.001 * np.array([0, 0, 1.0]), [0, 0, -1.0], 1e4))  # 1 mm into a floor
