@@ -16,6 +16,12 @@ from robocal.io.output import write_folder
 LABELS = {"cad": "CAD (URDF)", "ols": "OLS base parameters", "consistent": "physically consistent"}
 
 
+def torque_units(res: IdentifyResult) -> list[str]:
+    """N for a prismatic recorded joint, N m for a revolute one."""
+    return ["N" if res.model.joints[res.model.getJointId(j)].shortname().startswith("JointModelP") else "N m"
+            for j in res.recorded]
+
+
 def result_dict(res: IdentifyResult) -> dict:
     """Everything the summary states, as JSON-ready values (units in the key names)."""
     proc, ols, fit = res.processed, res.ols, res.consistent
@@ -23,8 +29,7 @@ def result_dict(res: IdentifyResult) -> dict:
     return {
         "config": res.config.source,
         "recorded_joints": res.recorded,
-        "torque_units": ["N" if res.model.joints[res.model.getJointId(j)].shortname().startswith("JointModelP")
-                         else "N m" for j in res.recorded],
+        "torque_units": torque_units(res),
         "signal_processing": {"choices": proc.choices, "cutoff_hz": proc.cutoff_hz, "grid_rate_hz": proc.fs_raw,
                               "decimation": proc.decimation, "velocity_check": proc.velocity_check},
         "windows_s": {"train": list(res.config.train), "validate": list(res.config.validate),
@@ -94,7 +99,7 @@ def summary_text(res: IdentifyResult) -> str:
 def torque_figure(res: IdentifyResult) -> bytes:
     """PNG: measured and predicted torques per recorded joint on the validation window."""
     from robocal.viz.plots import joint_torques   # optional dependency (matplotlib): only for a figure
-    units = result_dict(res)["torque_units"]
+    units = torque_units(res)
     buf = io.BytesIO()
     joint_torques(res.curves["t"], res.curves["measured"], {LABELS[m]: res.curves[m] for m in MODELS}, buf,
                   [j.replace("_joint", "") for j in res.recorded], units,
