@@ -13,8 +13,8 @@ import pinocchio as pin
 
 from robocal.model.joint_tilt import JointTilts
 from robocal.model.loops import assemble
-from robocal.model.parameters import COMPONENTS, ParameterSet
-from robocal.model.robot import ConfigurationMap
+from robocal.model.parameters import ParameterSet
+from robocal.model.state_layout import state_layout
 
 LOCAL = pin.ReferenceFrame.LOCAL
 
@@ -31,60 +31,34 @@ class ModelState:
 
     def __init__(self, robot, params: ParameterSet, joint_names: list[str]):
         self.robot, self.params, self.joint_names = robot, params, list(joint_names)
+        layout = state_layout(robot, params, self.joint_names)    # the structure, worked out once
+        self.layout = layout
         nominal = robot.model
         self.model = nominal.copy()
         self._data = None
-        free = params.free_names
-        self.n_free = len(free)
-        col = params.column_map()   # parameter -> [(free column, coefficient)]; ties act on their leaders
+        self.n_free = layout.n_free
+        values = layout.values(params)
+        n_read = len(self.joint_names)
         nj = nominal.njoints - 1
         # Maps from "twist of a placement" / "joint velocity" to the free-parameter vector.
         self.P_joint = np.zeros((6 * nj, self.n_free))
-        self.offsets = np.zeros(len(self.joint_names))
-        self.compliance = np.zeros(len(self.joint_names))
-        self.compliance_cols: list[tuple] = []   # (read index, v index, free column, coefficient)
-        self.backlash, self.backlash_cols = np.zeros(len(self.joint_names)), []   # as compliance
-        self.P_offset = np.zeros((self.model.nv, self.n_free))
+        self.offsets = layout.read_values("joint_offset", values, n_read)
+        self.compliance = layout.read_values("joint_compliance", values, n_read)
+        self.backlash = layout.read_values("joint_backlash", values, n_read)
+        # shared with the layout unless a closed chain's relations rewrite them (_setup_relations)
+        self.P_offset, self.compliance_cols, self.backlash_cols = (layout.P_offset, layout.compliance_cols,
+                                                                   layout.backlash_cols)
         self.P_frame: dict[int, np.ndarray] = {}
         self.P_base = np.zeros((6, self.n_free))
         self.base = robot_base = robot.base_placement
-        read_v = {}
-        for k, name in enumerate(self.joint_names):
-            read_v[name] = (k, self.model.joints[robot.joint_id(name)].idx_v)
-        self._read_v_index = np.array([read_v[n][1] for n in self.joint_names], dtype=int)
-        groups: dict[tuple[str, str], None] = {}
-        tilts = []
-        for p in params:
-            if p.kind in ("joint_placement", "frame_placement", "base"):
-                groups[(p.kind, p.target)] = None
-            elif p.kind == "joint_tilt":
-                tilts.append((robot.joint_id(p.target), p.value, col.get(p.name, [])))
-            elif p.kind in ("joint_compliance", "joint_offset", "joint_backlash"):
-                if p.target not in read_v:
-                    raise ValueError(f"{p.kind.split('_')[1]} parameter {p.name}: joint '{p.target}' is not read "
-                                     "by the data")
-                k, iv = read_v[p.target]
-                if p.kind == "joint_offset":
-                    self.offsets[k] = p.value
-                    for c, w in col.get(p.name, []):
-                        self.P_offset[iv, c] += w
-                elif p.kind == "joint_backlash":
-                    self.backlash[k] = p.value
-                    self.backlash_cols += [(k, iv, c, w) for c, w in col.get(p.name, [])]
-                else:
-                    self.compliance[k] = p.value
-                    self.compliance_cols += [(k, iv, c, w) for c, w in col.get(p.name, [])]
+        self._read_v_index = layout.read_v_index
+        tilts = [(jid, values[slot], cols) for jid, slot, cols in layout.tilts]
         induced = []   # joints that hang below a calibrated frame: (joint id, moved frame, its block)
         frame_blocks = []
-        # frames first: a joint below a calibrated frame gets that change before its own placement error;
-        # among frames, parents first, so a calibrated frame below another takes its parent's change
-        for kind, target in sorted(groups, key=lambda g: (g[0] != "frame_placement", self._frame_depth(g))):
-            delta = params.placement_vector(kind, target)
-            Jr = pin.Jexp6(pin.Motion(delta))
-            block = np.zeros((6, self.n_free))
-            for c, comp in enumerate(COMPONENTS):
-                for j, w in col.get(f"{target}.{comp}", []):
-                    block[:, j] += w * Jr[:, c]
+        deltas = np.append(values, 0.0)[layout.group_value_index]     # (groups, 6); a missing component: 0
+        for group, delta in zip(layout.groups, deltas):    # frames first, parents before children (state_layout)
+            kind, target = group.kind, group.target
+            block = pin.Jexp6(pin.Motion(delta)) @ group.selector
             if kind == "joint_placement":
                 jid = robot.joint_id(target)
                 self.model.jointPlacements[jid] = self.model.jointPlacements[jid] * _exp6(delta)
@@ -112,7 +86,7 @@ class ModelState:
             self.P_joint[6 * (jid - 1):6 * jid] += (final.inverse() * moved).toActionMatrix() @ block
         self._owner: SampleState | None = None
         self.has_joint_params, self.has_base_params = bool(self.P_joint.any()), bool(self.P_base.any())
-        self._qmap = ConfigurationMap(robot, self.joint_names)
+        self._qmap = layout.qmap
         if self.compliance.any() or self.compliance_cols:
             self._gdata = nominal.createData()
         # the model the samples run: the calibrated one, or a copy whose tilted joints move per sample
@@ -127,8 +101,8 @@ class ModelState:
                 raise ValueError(f"the data must read the actuated joints; missing: {', '.join(missing)}")
             self._act_order = [self.joint_names.index(j) for j in self.loops.actuated]
             self._adata = self.model.createData()
-            self._setup_relations(params, col)
-        elif any(p.kind == "transmission" for p in params):
+            self._setup_relations(params, layout.columns)
+        elif layout.has_transmission:
             raise ValueError("transmission parameters need a robot with joint relations (screw transmissions or "
                              "couplings)")
 
@@ -143,17 +117,6 @@ class ModelState:
     @property
     def kin_data(self) -> pin.Data:
         return self._kin_data if self._kin_data is not None else self.data
-    def _frame_depth(self, group: tuple[str, str]) -> int:
-        """How many frames a calibrated frame hangs below on its joint (0 for other kinds)."""
-        kind, target = group
-        if kind != "frame_placement":
-            return 0
-        frames = self.robot.model.frames
-        k, depth = self.robot.frame_id(target), 0
-        while k != 0 and frames[frames[k].parentFrame].parentJoint == frames[k].parentJoint:
-            k, depth = frames[k].parentFrame, depth + 1
-        return depth
-
     def _setup_relations(self, params: ParameterSet, col: dict) -> None:
         """Joint relations (screw transmissions, couplings) of a closed chain, and their parameters.
 
@@ -179,6 +142,8 @@ class ModelState:
         if relations != loops.relations:
             self.loops = loops.with_relations(relations)
         self.driven_reads = [self.joint_names.index(j) for j in loops.driven]
+        self.P_offset = self.P_offset.copy()          # rewritten below: not the layout's
+        self.compliance_cols, self.backlash_cols = list(self.compliance_cols), list(self.backlash_cols)
         self.driven_cols = []       # (read index, free column, coefficient, 'offset' | 'compliance' | 'backlash')
         for k in self.driven_reads:
             iv = self._read_v_index[k]

@@ -179,6 +179,18 @@ class ParameterSet:
     def values(self) -> dict[str, float]:
         return {n: p.value for n, p in self._params.items()}
 
+    def value_array(self, names: list[str]) -> np.ndarray:
+        """The values of `names`, in that order, as one vector."""
+        params = self._params
+        return np.array([params[n].value for n in names], dtype=float)
+
+    def structure(self) -> tuple:
+        """What the parameters are, apart from their values: names, kinds, targets, which are free, the
+        ties. Equal structures give equal solver columns (robocal.model.state_layout keys on it)."""
+        ps = list(self._params.values())
+        return (tuple(self._params), tuple([p.kind for p in ps]), tuple([p.target for p in ps]),
+                tuple([p.vary for p in ps]), tuple([(p.name, tuple(p.tied_to.items())) for p in ps if p.tied_to]))
+
     # ---- solver vector ----------------------------------------------------------------
     @property
     def free_names(self) -> list[str]:
