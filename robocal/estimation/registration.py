@@ -66,11 +66,14 @@ def data_rows(problem, n_rows: int) -> np.ndarray:
     return keep
 
 
-def fit_subset(problem, names: list[str], options):
-    """Fit only `names` (the rest held at their values); values stay at the fit, `vary` flags are restored."""
+def fit_subset(problem, names: list[str], options, last: dict | None = None):
+    """Fit only `names` (the rest held at their values); values stay at the fit, `vary` flags are restored.
+    last: if given, receives the solver's last evaluation ('x', 'ev'), so that a caller evaluating at the
+    solution with the same free set need not evaluate again."""
     params = problem.params
     free = params.free_names
     fixed_now = [n for n in names if not params[n].vary]
+    last = {} if last is None else last
     try:
         for n in free:
             params[n].vary = n in names
@@ -82,6 +85,7 @@ def fit_subset(problem, names: list[str], options):
         def fun(x):
             params.set_free_values(x)
             ev = evaluate()
+            last["x"], last["ev"] = np.array(x), ev
             return ev.r, ev.J, ev.group
 
         sol = levenberg_marquardt(fun, params.free_values(), *params.free_bounds(), loss=options.loss,
@@ -104,11 +108,15 @@ def register_nominal(problem, options) -> Registered:
     reg = [n for n in free if is_registration(params[n], measured)]
     start = params.values()                     # every value, tied followers included
     warm = copy.deepcopy(problem.warm_starts)   # closed chains assemble from the last solution: keep the fit's
+    last: dict = {}
     try:
-        message = fit_subset(problem, reg, options).message if reg else "nothing to register"
+        sol = fit_subset(problem, reg, options, last) if reg else None
+        message = sol.message if sol is not None else "nothing to register"
         for n in free:
             params[n].vary = n in reg      # the "before" layout: no prior rows of the robot parameters
-        before = block_statistics(problem, problem.evaluate(jacobian=False))
+        # the solver's last evaluation, if it was at the solution (same free set, so the same rows)
+        at_solution = sol is not None and "x" in last and np.array_equal(last["x"], sol.x)
+        before = block_statistics(problem, last["ev"] if at_solution else problem.evaluate(jacobian=False))
         values = {n: params[n].value for n in reg}
     finally:
         for n in free:
