@@ -120,7 +120,7 @@ class Problem:
         and the prior rows last. Memory then grows with the chunk, not with the samples. With `out`, the
         whole (m, n_free) Jacobian, batched rows are written straight into it (J is then a view of it)."""
         ms = self.model_state()
-        col = self.params.column_map()
+        col = ms.layout.columns        # the parameter structure's column map, worked out once
         n_free = ms.n_free
         batch = None
         if any(res.batched for res in self.residuals):

@@ -35,7 +35,11 @@ def supports_batch(ms) -> bool:
     """Whether a ModelState's samples can be evaluated here (serial, no tilts, plain one-dof joints)."""
     if ms.loops is not None or ms.tilts is not None:
         return False
-    return all(j.shortname() in CONSTANT_SUBSPACE for j in list(ms.kin_model.joints)[1:])
+    memo = ms.robot.__dict__.setdefault("_constant_subspace", {})    # joint kinds never change: once per model
+    key = ms.kin_model.njoints
+    if key not in memo:
+        memo[key] = all(j.shortname() in CONSTANT_SUBSPACE for j in list(ms.kin_model.joints)[1:])
+    return memo[key]
 
 
 @dataclass
@@ -78,6 +82,7 @@ class SampleConstants:
                 J = pin.getJointJacobian(model, data, jid, LOCAL)
                 self.subspace[jm.idx_v:jm.idx_v + jm.nv] = J[:, jm.idx_v:jm.idx_v + jm.nv].T
         self.regressors: dict = {}                  # frame id -> (q, joint placements, regressors) of the last pass
+        self.data = None                            # Pinocchio workspace of the batched passes
         self.buffers: dict = {}
 
     def buffer(self, key, shape) -> np.ndarray:
@@ -115,7 +120,6 @@ class BatchKinematics:
     def __init__(self, ms, constants: SampleConstants, values: np.ndarray, directions: np.ndarray | None):
         self.ms, self.constants = ms, constants
         self.model = ms.kin_model
-        self._data = None
         link = values if directions is None else values + ms.backlash * directions
         link = link + ms.offsets
         if constants.tau is not None:
@@ -137,9 +141,11 @@ class BatchKinematics:
         if (hit is not None and np.array_equal(hit[0], samples) and np.array_equal(hit[1], q)
                 and np.array_equal(hit[2], placements)):
             return hit[3]
-        if self._data is None:      # own Data (the per-sample path's cached state stays valid), on a cache miss
-            self._data = model.createData()
-        data = self._data
+        # own Data (the per-sample path's cached state stays valid), kept between passes: a Data depends on
+        # the model's structure only, which every calibrated copy shares
+        data = self.constants.data
+        if data is None:
+            data = self.constants.data = model.createData()
         shape = (len(samples), 6, 6 * (model.njoints - 1))
         out = hit[3] if hit is not None and hit[3].shape == shape else np.empty(shape)   # the old entry's memory
         for row, qi in enumerate(q):

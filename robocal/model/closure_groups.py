@@ -13,7 +13,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from robocal.model.closure_arrays import closure_arrays, hinge_bases
-from robocal.model.tree_arrays import TreeArrays, cross
+from robocal.model.lie_arrays import cross
+from robocal.model.tree_arrays import TreeArrays
 
 
 @dataclass

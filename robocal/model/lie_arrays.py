@@ -29,13 +29,30 @@ def transpose(R: np.ndarray) -> np.ndarray:
     return np.swapaxes(R, -1, -2)
 
 
+def cross(a: np.ndarray, b: np.ndarray, axis: int = -1, out: np.ndarray | None = None) -> np.ndarray:
+    """a x b along `axis` (np.cross without its axis juggling, which dominates on small stacks); the components
+    are views and the products are written into the result (no copies of strided inputs), or into `out`."""
+    def at(i):
+        return (Ellipsis, i) + (slice(None),) * (-axis - 1) if axis < 0 else (slice(None),) * axis + (i,)
+    a0, a1, a2 = a[at(0)], a[at(1)], a[at(2)]
+    b0, b1, b2 = b[at(0)], b[at(1)], b[at(2)]
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape)) if out is None else out
+    for i, (x, y, u, v) in enumerate(((a1, b2, a2, b1), (a2, b0, a0, b2), (a0, b1, a1, b0))):
+        np.multiply(x, y, out=out[at(i)])
+        out[at(i)] -= u * v
+    return out
+
+
 def renormalise(R: np.ndarray) -> np.ndarray:
     """Pinocchio's renormalize_rotation_matrix on a stack."""
-    c0 = R[..., :, 0] / np.linalg.norm(R[..., :, 0], axis=-1, keepdims=True)
-    c1 = R[..., :, 1] / np.linalg.norm(R[..., :, 1], axis=-1, keepdims=True)
-    c2 = np.cross(c0, c1)
-    c0 = np.cross(c1, c2)
-    return np.stack([c0, c1, c2], axis=-1)
+    c0, c1 = R[..., :, 0], R[..., :, 1]
+    c0 = c0 / np.sqrt(np.einsum("...i,...i->...", c0, c0))[..., None]
+    c1 = c1 / np.sqrt(np.einsum("...i,...i->...", c1, c1))[..., None]
+    out = np.empty(R.shape)
+    out[..., :, 2] = c2 = cross(c0, c1)
+    out[..., :, 0] = cross(c1, c2)
+    out[..., :, 1] = c1
+    return out
 
 
 def log3(R: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

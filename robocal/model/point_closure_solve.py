@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from robocal.model.tree_arrays import cross
+from robocal.model.lie_arrays import cross
 
 OWN = 2          # solved coordinates each point closure owns (a universal joint's two)
 

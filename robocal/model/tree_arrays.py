@@ -18,7 +18,7 @@ import copy
 import numpy as np
 import pinocchio as pin
 
-from robocal.model.lie_arrays import quaternion_matrices, skew
+from robocal.model.lie_arrays import cross, quaternion_matrices, skew
 
 KINDS = {**{f"JointModelR{a}": "revolute" for a in "XYZ"}, "JointModelRevoluteUnaligned": "revolute",
          **{f"JointModelRUB{a}": "continuous" for a in "XYZ"}, "JointModelRevoluteUnboundedUnaligned": "continuous",
@@ -29,21 +29,6 @@ SMALL_ANGLE = 1e-4      # below it, the exp maps' coefficients by their Taylor s
 
 def supports_tree_arrays(model: pin.Model) -> bool:
     return all(j.shortname() in KINDS for j in list(model.joints)[1:])
-
-
-def cross(a: np.ndarray, b: np.ndarray, axis: int = -1, out: np.ndarray | None = None) -> np.ndarray:
-    """a x b along `axis` (np.cross without its axis juggling, which dominates on small stacks); the components
-    are views and the products are written into the result (no copies of strided inputs), or into `out`."""
-    def at(i):
-        return (Ellipsis, i) + (slice(None),) * (-axis - 1) if axis < 0 else (slice(None),) * axis + (i,)
-    a0, a1, a2 = a[at(0)], a[at(1)], a[at(2)]
-    b0, b1, b2 = b[at(0)], b[at(1)], b[at(2)]
-    out = np.empty(np.broadcast_shapes(a.shape, b.shape)) if out is None else out
-    for i, (x, y, u, v) in enumerate(((a1, b2, a2, b1), (a2, b0, a0, b2), (a0, b1, a1, b0))):
-        np.multiply(x, y, out=out[at(i)])
-        out[at(i)] -= u * v
-    return out
-
 
 
 def quaternion_step(quat: np.ndarray, w: np.ndarray) -> np.ndarray:
