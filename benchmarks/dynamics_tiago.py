@@ -1,6 +1,6 @@
 """Benchmark: dynamic identification of the shipped TIAGo log through its config alone.
 
-    OMP_NUM_THREADS=1 python benchmarks/dynamics_tiago.py [--repeats N] [--figaroh [--figaroh-venv PATH]]
+    OMP_NUM_THREADS=1 python benchmarks/dynamics_tiago.py [--repeats N] [--config YAML] [--figaroh [--figaroh-venv PATH]]
 
 Prints the held-out torque RMSE per recorded joint for the CAD model (the baseline, same run), the
 OLS base parameters and the physically consistent model, the free-motion external force, and the
@@ -100,6 +100,7 @@ def run_figaroh(python, res, repeats: int) -> list[dict]:
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=1)
+    ap.add_argument("--config", default=str(CONFIG), help="another identification config (default: the shipped one)")
     add_options(ap)
     args = ap.parse_args(argv)
     python = figaroh_python(args)
@@ -109,13 +110,13 @@ def main(argv=None):
     for _ in range(args.repeats):
         spent.clear()
         t0, c0 = time.perf_counter(), time.process_time()
-        res = identify_from_config(CONFIG)
+        res = identify_from_config(args.config)
         times.append(time.perf_counter() - t0)
         cpu.append(time.process_time() - c0)
         extra.append(sum(spent.values()))
     units = ["N" if res.model.joints[res.model.getJointId(j)].shortname().startswith("JointModelP") else "N m"
              for j in res.recorded]
-    print(f"config: {CONFIG}")
+    print(f"config: {args.config}")
     print(f"train {list(res.config.train)} s ({res.train.sum()} samples), validate {list(res.config.validate)} s "
           f"({res.check.sum()} samples); cut-off {res.processed.cutoff_hz:.3g} Hz, "
           f"decimation {res.processed.decimation}")

@@ -19,7 +19,7 @@ def test_whole_path_recovers_base_parameters_within_noise(tmp_path):
     beta_true = base_values_of(sel, true_full)
     z = (res.ols.values - beta_true) / res.ols.std
     # the standard errors allow for the filtered noise's correlation across decimated samples
-    # (serial_correlation.py; without it sum z^2 is 172); with correct standard errors, sum z^2 ~ chi-square(rank): its 99.9 % quantile bounds it, and
+    # (serial_correlation.py; without it sum z^2 is 156); with correct standard errors, sum z^2 ~ chi-square(rank): its 99.9 % quantile bounds it, and
     # no single |z| exceeds 4.5 (two-sided 7e-6 each, < 0.05 % over the ~60 parameters)
     assert np.sum(z**2) < chi2.ppf(0.999, sel.rank), (np.sum(z**2), sel.rank)
     assert np.max(np.abs(z)) < 4.5

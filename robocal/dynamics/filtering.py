@@ -82,11 +82,20 @@ class ProcessedLog:
     order: int
     choices: list[str] = field(default_factory=list)
     velocity_check: dict = field(default_factory=dict)
+    inner_trim: int = 0
+
+    def decimated(self, x: np.ndarray) -> np.ndarray:
+        """The samples the identification uses, of an array over `t` (T, ...): `inner_trim` more samples
+        dropped at each end (where the second low-pass of parallel filtering has its own edge transients),
+        then every `decimation`-th."""
+        return x[self.inner_trim:len(x) - self.inner_trim][::self.decimation]
 
 
 def parallel_filter(proc: ProcessedLog, columns: np.ndarray) -> np.ndarray:
-    """The log's low-pass applied along axis 0 of `columns` (T, ...) at its full rate, then decimated."""
-    return lowpass(columns, proc.fs_raw, proc.cutoff_hz, proc.order)[::proc.decimation]
+    """The log's low-pass applied along axis 0 of `columns` (T, ...) at its full rate, then the samples of
+    `proc.decimated`. The columns are computed from the filtered log, valid only inside its trimmed
+    edges: this second filtering has edge transients of its own, which `proc.inner_trim` removes."""
+    return proc.decimated(lowpass(columns, proc.fs_raw, proc.cutoff_hz, proc.order))
 
 
 def uniform_grid(t: np.ndarray) -> tuple[np.ndarray, float]:
@@ -153,7 +162,7 @@ def process_log(t: np.ndarray, q: np.ndarray, v: np.ndarray, effort: np.ndarray,
     v_use = vf if opt.velocity_source == "logged" else v_num
     a = np.gradient(v_use, dt, axis=0)
     trim = int(np.ceil(opt.edge_periods / fc / dt))
-    if len(grid) <= 2 * trim + 3:
+    if len(grid) <= 4 * trim + 3:
         raise InputError(f"log of {t[-1] - t[0]:.3g} s is too short for a {fc:.3g} Hz filter", field="t")
     keep = slice(trim, len(grid) - trim)
     check = _velocity_check(v_num[keep], vf[keep], vg[keep], dt)
@@ -166,11 +175,13 @@ def process_log(t: np.ndarray, q: np.ndarray, v: np.ndarray, effort: np.ndarray,
         f"velocities: {opt.velocity_source}; accelerations: central differences of those velocities",
         f"{trim} samples ({trim * dt:.3g} s, {opt.edge_periods:g} cut-off periods) trimmed at each end",
         "parallel filtering: the regressor columns, computed at every grid sample, get the same low-pass "
-        "as the torques before decimation (a Coulomb step is then smoothed alike on both sides)",
+        "as the torques before decimation (a Coulomb step is then smoothed alike on both sides); that second "
+        f"low-pass has edge transients of its own: {trim} more samples trimmed at each end",
         f"decimated by {k} to {fs / k:.4g} Hz (Nyquist {fs / k / 2:.3g} Hz >= {opt.nyquist_ratio:g} x cut-off)"
         if opt.decimate is None else f"decimated by {k} (configured) to {fs / k:.4g} Hz",
     ]
-    return ProcessedLog(grid[keep], qf[keep], v_use[keep], a[keep], ef[keep], fs, fc, k, opt.order, choices, check)
+    return ProcessedLog(grid[keep], qf[keep], v_use[keep], a[keep], ef[keep], fs, fc, k, opt.order, choices, check,
+                        trim)
 
 
 def _velocity_check(v_num: np.ndarray, v_filtered: np.ndarray, v_raw: np.ndarray, dt: float) -> dict:

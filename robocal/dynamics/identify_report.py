@@ -72,7 +72,8 @@ def summary_text(res: IdentifyResult) -> str:
               f"OLS: {d['ols']['rank']} base parameters, condition number {d['ols']['condition_number']:.4g}.",
               f"Consistent fit: CAD prior weight {res.consistent.prior_weight:.3g} chosen on the training window "
               f"(fit on its first {100 * res.prior.split_fraction:.0f} %, scored on the rest); "
-              f"Clarabel {res.consistent.iterations} iterations, status {res.consistent.status}.",
+              f"Clarabel {res.consistent.iterations} iterations, status {res.consistent.status}."
+              + grid_edge_note(res.prior),
               "Every body's pseudo-inertia PSD: " + str(all(v[1] for v in res.consistency.values())),
               "", "Held-out torque RMSE per joint (% of the joint's torque range in the window):"]
     header = f"  {'model':24s}" + "".join(f"{j:>22s}" for j in res.recorded)
@@ -115,3 +116,12 @@ def write_identification(res: IdentifyResult, out_dir: str | Path, force: bool =
     except ImportError:
         files["summary.txt"] += b"(matplotlib is not installed: no figure)\n"
     return write_folder(out_dir, files, force=force)
+
+
+def grid_edge_note(prior) -> str:
+    """Said when the chosen prior weight is the grid's smallest or largest: the best may lie beyond it."""
+    if len(prior.grid) < 2 or prior.chosen not in (min(prior.grid), max(prior.grid)):
+        return ""
+    side = "largest" if prior.chosen == max(prior.grid) else "smallest"
+    return (f" NOTE: {prior.chosen:.3g} is the {side} weight of model.prior_grid; the data may favour one beyond "
+            f"it (widen the grid).")

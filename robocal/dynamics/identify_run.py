@@ -34,7 +34,7 @@ MODELS = ("cad", "ols", "consistent")
 class IdentifyResult:
     """config; model: the reduced CAD model; recorded: recorded joint names (model order);
     processed: the filtered log (full rate); train, check: masks over its decimated samples
-    (processed.t[::processed.decimation]); ols, consistent,
+    (processed.decimated(processed.t)); ols, consistent,
     prior: the fits; consistency: {body: (smallest pseudo-inertia eigenvalue, realisable)} of the
     consistent model; validation: {model: {'rmse': [...], 'percent_of_range': [...]}} on the
     validation window; training_rms: {model: [...]}; torque_range: per joint on the validation
@@ -92,8 +92,8 @@ def identify_from_config(path_or_dict, base_dir=None) -> IdentifyResult:
     # parallel filtering: regressor at the full rate, same low-pass as the torques, then decimation
     reg_all = build_regressor(model, proc.q, proc.v, proc.a, rec_idx, cfg.terms, width).transformed(
         lambda X: parallel_filter(proc, X))
-    t_dec = proc.t[::proc.decimation]
-    tau_dec = proc.effort[::proc.decimation]
+    t_dec = proc.decimated(proc.t)
+    tau_dec = proc.decimated(proc.effort)
     # the zero-phase filter spreads each sample over a few cut-off periods: training samples that close to
     # the validation window would carry its data into the fit, so they are left out
     guard = cfg.signal.edge_periods / proc.cutoff_hz
@@ -139,7 +139,7 @@ def identify_from_config(path_or_dict, base_dir=None) -> IdentifyResult:
                    for b, p in bodies.items()}
     beta_c = base_values_of(ols.selection, consistent.params)
     within = _within_noise(reg_train, tau_train, ols, consistent, beta_c)
-    wrench = _wrench_rms(cfg, model, proc.q[::proc.decimation][check], rec_idx, {k: curves[k] for k in MODELS},
+    wrench = _wrench_rms(cfg, model, proc.decimated(proc.q)[check], rec_idx, {k: curves[k] for k in MODELS},
                          tau_check)
     return IdentifyResult(cfg, model, recorded, proc, train, check, ols, consistent, prior, consistency, validation,
                           training_rms, t_range, within, wrench, curves)

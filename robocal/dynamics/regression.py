@@ -6,7 +6,7 @@ Per sample and recorded joint j:  tau_j = Y_j(q, v, a) pi + Fc_j tanh(v_j / eps)
 viscous friction, tau0 a torque offset and Ia the rotor inertia reflected to the joint (armature).
 Joints without recorded torque stay in the model (their bodies load the others) but give no rows.
 Base parameters are chosen by robocal.estimation.identifiability.select_base_parameters on the weighted
-regressor; the weights 1/sigma_j come from the residuals (two passes); standard errors allow for
+regressor; the weights 1/sigma_j come from the residuals of the pass before (three passes); standard errors allow for
 the filtered noise's correlation across samples (serial_correlation.py). See docs/dynamics_tiago.md.
 """
 from __future__ import annotations
@@ -88,7 +88,8 @@ class BaseFit:
     """Unconstrained fit. selection: the base-parameter choice; values: base parameters; std: their
     standard errors, allowing for the filtered noise's correlation across samples (inflation, the
     variance factor of serial_correlation.py); std_independent: the textbook standard errors, which
-    assume independent rows; sigma (nr,) per-joint residual RMS used as weights (torque units);
+    assume independent rows; sigma (nr,) per-joint residual RMS of the weighted pass before the final one,
+    the weights of the final fit (torque units; beta minimises that weighted objective);
     condition: condition number of the column-scaled weighted base regressor; dof: rows - parameters."""
 
     selection: BaseSelection
@@ -122,13 +123,16 @@ def fit_base(reg: Regressor, tau: np.ndarray, rtol: float = 1e-6, inflation: flo
         raise InputError(f"torques must be (T, {nr}) matching the regressor", field="effort")
     y = tau.reshape(-1)
     sigma = np.ones(nr)
-    for _ in range(2):                       # weights from the residuals of the previous pass
+    # weights from the residuals of the pass before: unweighted, weighted once, then the final fit; the
+    # returned sigma is the one the final fit weighed by, so beta minimises exactly that objective
+    for final in (False, False, True):
         w = row_weights(sigma, len(tau))
         sel = select_base_parameters(reg.X * w[:, None], reg.names, rtol)
         Xb = reg.X[:, sel.independent] * w[:, None]
         beta, *_ = np.linalg.lstsq(Xb, y * w, rcond=None)
         resid = (y - reg.X[:, sel.independent] @ beta).reshape(-1, nr)
-        sigma = np.maximum(np.sqrt(np.mean(resid**2, axis=0)), 1e-12 * max(1.0, np.abs(y).max()))
+        if not final:
+            sigma = np.maximum(np.sqrt(np.mean(resid**2, axis=0)), 1e-12 * max(1.0, np.abs(y).max()))
     dof = max(len(y) - sel.rank, 1)
     s2 = float(np.sum((resid.reshape(-1) * w) ** 2) / dof)
     std_independent = np.sqrt(np.diag(covariance(Xb, s2)))
