@@ -77,7 +77,7 @@ def run(name: str, geometry: st.StewartGeometry, n_poses: int, n_batch: int, rng
     Rf, pf, converged = stewart_fk.forward_kinematics_batch(geometry, sb)
     err = max(np.abs(Rf - Rb).max(), np.abs(pf - pb).max())
     rows.append((f"closed-form FK batch of {n_batch}, cold start", f"{n_batch / t:,.0f} /s", "> 100,000 /s"))
-    rows.append((f"  batch converged / max error", f"{converged.sum()}/{n_batch}, {err:.1e}", ""))
+    rows.append(("  batch converged / max error", f"{converged.sum()}/{n_batch}, {err:.1e}", ""))
     t = best_of(lambda: stewart_fk.forward_kinematics_batch(geometry, sb, Rb @ st.rotation_xyz([1e-3] * 3), pb + 1e-3))
     rows.append((f"closed-form FK batch of {n_batch}, warm start", f"{n_batch / t:,.0f} /s", "> 100,000 /s"))
     t = best_of(lambda: st.inverse_kinematics_batch(geometry, Rb, pb))
