@@ -12,15 +12,12 @@ from robocal.io.config import load_config
 from robocal.io.data_check import nominal_states, units_findings
 from robocal.io.output import check_replaceable, write_results
 from robocal.viz.scene import scene_bytes
+from robocal.io.wording import plural
 
 
 def _progress(it):
     print(f"  iteration {it.iteration:3d}   cost {it.cost:12.6g}   step {it.step_norm:10.3g}   "
           f"damping {it.damping:9.3g}", file=sys.stderr, flush=True)
-
-
-def plural(n: int, word: str) -> str:
-    return f"{n} {word}{'' if n == 1 else 's'}"
 
 
 def check_data(setup, allow_failed: bool) -> None:

@@ -36,6 +36,7 @@ from robocal.viz.measurements import current_point, draw_measurements, label_par
 from robocal.viz.shapes import ARROW_FRACTION, COLOURS, nice_factor, se3_from_pose7
 from robocal.viz.skeleton import draw_skeleton, segment_at
 from robocal.model.robot import load_urdf
+from robocal.io.wording import plural
 
 log = logging.getLogger(__name__)
 
@@ -210,7 +211,7 @@ class SceneView:
     # ---- static page ---------------------------------------------------------------------------
     def legend_html(self) -> str:
         rows = [f'<b>robocal visual check</b>: {html.escape(self.scene["robot"]["name"])}, '
-                f'{self.n_samples} samples. <span id="robocal-sample"></span>',
+                f'{plural(self.n_samples, "sample")}. <span id="robocal-sample"></span>',
                 '<button onclick="robocalShow(robocalSample-1)">&#9664; previous</button> '
                 '<button onclick="robocalShow(robocalSample+1)">next &#9654;</button>',
                 '<span class="dot" style="background:#202020"></span> measured '

@@ -18,6 +18,7 @@ import numpy as np
 
 from robocal.viz import plots
 from robocal.errors import InputError
+from robocal.io.wording import plural
 from robocal.viz.report_validation import evaluation_section, refusal_section
 from robocal.viz.scene import read_scene
 
@@ -109,7 +110,7 @@ def report_html(result: dict, scene: dict | None = None, meshes: bool = True, ti
                ["condition number", format_value(result.get("condition_number"), ".3g")],
                ["residual / stated sigma", format_value(result.get("sigma_ratio"), ".3f")]]
     if scene:
-        summary.insert(0, ["robot", f"{scene['robot']['name']} ({len(scene['values'])} samples)"])
+        summary.insert(0, ["robot", f"{scene['robot']['name']} ({plural(len(scene['values']), 'sample')})"])
     blocks = []
     for b0, b1 in zip(result.get("residuals_before", []), result.get("residuals_after", [])):
         fmt = lambda d: ", ".join(f"{v:.4g} {k}" for k, v in (d or {}).items())
