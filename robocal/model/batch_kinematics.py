@@ -187,8 +187,10 @@ class BatchKinematics:
             root = model.jointPlacements[j0]
             Ri = root.rotation @ transpose(RX)
             pi = root.translation - np.einsum("nij,nj->ni", Ri, pX)
-        R0 = Ri @ placement.rotation
-        p0 = pi + Ri @ placement.translation
+        # a stack times one matrix as one (3n x 3) GEMM: several times faster than matmul's broadcasting
+        Ri = np.ascontiguousarray(Ri)
+        R0 = (Ri.reshape(-1, 3) @ placement.rotation).reshape(Ri.shape)
+        p0 = pi + (Ri.reshape(-1, 3) @ placement.translation).reshape(pi.shape)
         Rb, pb = ms.base.rotation, ms.base.translation
         R = Rb @ R0
         p = p0 @ Rb.T + pb
@@ -220,11 +222,16 @@ class BatchKinematics:
             for k, iv, c, w in ms.backlash_cols:            # d q_link / d b = d
                 J[:, :, c] += w * Jq[:, :, iv] * self.directions[samples, k][:, None]
         if fid in ms.P_frame:                  # constant columns, the frame's own only, seen from the joint
-            cols = np.flatnonzero(np.any(ms.P_frame[fid] != 0.0, axis=0))
+            cols = contiguous(np.flatnonzero(np.any(ms.P_frame[fid] != 0.0, axis=0)))
             J[:, :, cols] += (model.frames[fid].placement.toActionMatrix() @ ms.P_frame[fid])[:, cols]
         if ms.has_base_params:
-            cols = np.flatnonzero(np.any(ms.P_base != 0.0, axis=0))    # the base's own columns only
-            if cols[-1] - cols[0] + 1 == len(cols):
-                cols = slice(cols[0], cols[-1] + 1)
+            cols = contiguous(np.flatnonzero(np.any(ms.P_base != 0.0, axis=0)))    # the base's own columns only
             J[:, :, cols] += adjoint_inverse(Ri, pi) @ ms.P_base[:, cols]
         return J
+
+
+def contiguous(cols: np.ndarray):
+    """A slice for a run of consecutive column indices (a view: no gather and scatter of J), else the indices."""
+    if len(cols) and cols[-1] - cols[0] + 1 == len(cols):
+        return slice(int(cols[0]), int(cols[-1]) + 1)
+    return cols
