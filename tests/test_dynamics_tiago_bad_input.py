@@ -72,3 +72,11 @@ def test_the_shipped_time_stamps_are_irregular():
     """The synthetic cases reuse these stamps: they must carry the log's irregular steps."""
     steps = np.diff(shipped("position")[:, 0])
     assert steps.min() < 0.008 and steps.max() > 0.012
+
+
+def test_a_training_window_too_short_to_choose_the_prior_weight(case):
+    cfg, tmp_path = case
+    cfg["signal"]["cutoff_hz"] = 2.0          # a 1 s guard between the fitted and the scored part
+    cfg["windows"]["train"] = [2.0, 4.5]
+    err = run_and_expect(cfg, tmp_path, "prior weight|widen")
+    assert err.field == "windows.train"

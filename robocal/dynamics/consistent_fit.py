@@ -86,12 +86,14 @@ def fit_consistent(reg: Regressor, tau: np.ndarray, sigma: np.ndarray, cad: np.n
 @dataclass
 class PriorWeightChoice:
     """grid of lambda values, score (weighted mean-square torque error on the held-out part of the
-    training window) per value, the chosen lambda and the fitted share of the training window."""
+    training window) per value, the chosen lambda and the fitted share of the training window; gap_s:
+    the time between the last fitted and the first scored sample (identify_run leaves the filter's reach)."""
 
     grid: list[float]
     scores: list[float]
     chosen: float
     split_fraction: float
+    gap_s: float = 0.0
 
 
 def choose_prior_weight(reg_fit: Regressor, tau_fit: np.ndarray, reg_check: Regressor, tau_check: np.ndarray,

@@ -71,7 +71,8 @@ def summary_text(res: IdentifyResult) -> str:
               f"({w['validate_samples']} samples, held out).",
               f"OLS: {d['ols']['rank']} base parameters, condition number {d['ols']['condition_number']:.4g}.",
               f"Consistent fit: CAD prior weight {res.consistent.prior_weight:.3g} chosen on the training window "
-              f"(fit on its first {100 * res.prior.split_fraction:.0f} %, scored on the rest); "
+              f"(fit on its first {100 * res.prior.split_fraction:.0f} % less the filter's reach, "
+              f"{res.prior.gap_s:.3g} s, scored on the rest); "
               f"Clarabel {res.consistent.iterations} iterations, status {res.consistent.status}."
               + grid_edge_note(res.prior),
               "Every body's pseudo-inertia PSD: " + str(all(v[1] for v in res.consistency.values())),

@@ -121,8 +121,15 @@ def identify_from_config(path_or_dict, base_dir=None) -> IdentifyResult:
     idx = np.flatnonzero(train)
     first, second = np.zeros_like(train), np.zeros_like(train)
     first[idx[:n_fit]], second[idx[n_fit:]] = True, True
+    # the same guard as before the validation window: the part that scores a weight is not seen by its fit
+    first &= t_dec < t_dec[idx[min(n_fit, len(idx) - 1)]] - guard
+    if first.sum() < 10 or second.sum() < 3:
+        raise InputError(f"choosing the prior weight leaves {first.sum()} samples to fit and {second.sum()} to score "
+                         f"(model.prior_split {cfg.prior_split:g}, {guard:.3g} s between them); widen the training "
+                         "window", source=cfg.source, field="windows.train")
     prior = choose_prior_weight(regressor(first), tau_dec[first], regressor(second), tau_dec[second],
                                 ols.sigma, cad, cfg.prior_grid, cfg.prior_split)
+    prior.gap_s = float(t_dec[second].min() - t_dec[first].max())
     consistent = fit_consistent(reg_train, tau_train, ols.sigma, cad, prior.chosen)
     predict = {"cad": lambda reg: (reg.X[:, :reg.n_inertial] @ cad).reshape(-1, len(rec_idx)),
                "ols": ols.predict, "consistent": consistent.predict}
