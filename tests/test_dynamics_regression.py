@@ -4,7 +4,7 @@ when the chosen prior weight sits at the end of the grid."""
 import numpy as np
 
 from robocal.dynamics.consistent_fit import PriorWeightChoice
-from robocal.dynamics.identify_report import grid_edge_note
+from robocal.dynamics.identify_report import grid_edge_note, within_noise_verdict
 from robocal.dynamics.regression import Regressor, fit_base, row_weights
 
 
@@ -39,3 +39,8 @@ def test_grid_edge_note_names_the_edge():
     assert "largest" in grid_edge_note(PriorWeightChoice(grid, [3, 2, 1], 10.0, 0.75))
     assert "smallest" in grid_edge_note(PriorWeightChoice(grid, [1, 2, 3], 0.1, 0.75))
     assert grid_edge_note(PriorWeightChoice(grid, [2, 1, 2], 1.0, 0.75)) == ""
+
+
+def test_within_noise_verdict_follows_the_quantile():
+    assert within_noise_verdict({"distance_in_noise_units": 70.0, "chi2_95": 80.2}).startswith("The consistent")
+    assert within_noise_verdict({"distance_in_noise_units": 93.2, "chi2_95": 80.2}).startswith("NOTE")

@@ -90,7 +90,8 @@ def summary_text(res: IdentifyResult) -> str:
               f"{wn['distance_in_noise_units']:.4g} from OLS in noise units (chi-square 95 % for "
               f"{wn['base_parameters']} base parameters: {wn['chi2_95']:.4g}; the filtered noise's correlation "
               f"across samples inflates variances by {wn['noise_inflation']:.3g}); per-joint RMS "
-              "ratio to OLS " + ", ".join(f"{r:.3f}" for r in wn["rms_ratio"]), "",
+              "ratio to OLS " + ", ".join(f"{r:.3f}" for r in wn["rms_ratio"]) + ".",
+              within_noise_verdict(wn), "",
               f"External force at {res.wrench_rms['frame']} during free motion (validation window), RMS per "
               "world axis x, y, z (force only):"]
     for m in MODELS:
@@ -126,3 +127,11 @@ def grid_edge_note(prior) -> str:
     side = "largest" if prior.chosen == max(prior.grid) else "smallest"
     return (f" NOTE: {prior.chosen:.3g} is the {side} weight of model.prior_grid; the data may favour one beyond "
             f"it (widen the grid).")
+
+
+def within_noise_verdict(wn: dict) -> str:
+    """One sentence: is the consistent model within the unconstrained fit's noise on the training window?"""
+    if wn["distance_in_noise_units"] <= wn["chi2_95"]:
+        return "The consistent model lies within the unconstrained fit's noise (below the 95 % quantile)."
+    return ("NOTE: the consistent model lies beyond the unconstrained fit's noise (above the 95 % quantile): "
+            "physical consistency costs fit on this data; compare the held-out figures above before using it.")
