@@ -175,6 +175,8 @@ class Problem:
                         Jr[k - k0] = (Jt * scale[:, None])[keep]
                 yield rows, r.ravel(), raw.ravel(), group, (Jr.reshape(n_t * n_keep, n_free) if jacobian else None)
             gid += res.n_terms
+        if not (self.blocks and self.blocks[-1].type_name == "prior"):    # the layout has no prior rows
+            return
         pr, pJ, _ = prior_rows(self.params)
         if len(pr):
             rows = slice(self.blocks[-1].rows.start, self.blocks[-1].rows.stop)
