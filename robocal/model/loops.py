@@ -11,6 +11,7 @@ Each closure k is anchored on two Pinocchio frames ``<name>.link1`` and ``<name>
 from __future__ import annotations
 
 import copy
+from typing import NamedTuple
 
 import numpy as np
 import pinocchio as pin
@@ -19,6 +20,13 @@ from robocal.errors import AssemblyError, InputError
 from robocal.model.inverse_kinematics import damped_newton
 from robocal.model.joint_relations import Coupling
 from robocal.model.loop_rows import Closure, closure_rows
+
+class JointSlot(NamedTuple):
+    """Where a one-dof joint sits in q and v (nq 2: a continuous joint stored as cos, sin)."""
+    idx_q: int
+    idx_v: int
+    nq: int
+
 
 class LoopSet:
     """The closures and the actuated/passive split of a closed-chain robot.
@@ -60,7 +68,9 @@ class LoopSet:
                                     dtype=int)
         names = [model.names[j] for j in range(1, model.njoints) if model.joints[j].nv > 0]
         self.passive = [n for n in names if n not in self.actuated]
-        self._act_joints = [model.joints[model.getJointId(n)] for n in self.actuated]
+        # index slots, not Pinocchio JointModels: those do not pickle, and a robot must (Dask workers)
+        self._act_joints = [JointSlot(j.idx_q, j.idx_v, j.nq)
+                            for j in (model.joints[model.getJointId(n)] for n in self.actuated)]
         self.actuated_v = np.array([j.idx_v for j in self._act_joints], dtype=int)
         self.passive_v = np.concatenate(
             [np.arange(model.joints[model.getJointId(n)].idx_v,
