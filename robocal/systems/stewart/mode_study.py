@@ -12,7 +12,6 @@ and on a Dask cluster (docs/fleet.md).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from functools import lru_cache
 from typing import Callable
 
 import numpy as np
@@ -20,8 +19,6 @@ import numpy as np
 from robocal.estimation.calibrate import calibrate
 from robocal.estimation.fleet.seeded import monte_carlo
 from robocal.estimation.problem import Problem
-from robocal.errors import InputError
-from robocal.model.robot import load_urdf
 from robocal.systems.stewart import calibration as sc
 from robocal.systems.stewart import modes as sm
 
@@ -141,31 +138,16 @@ def mix(parts: list[ModeData]) -> ModeData:
     return ModeData([r for p in parts for r in p.residuals], np.vstack([p.struts for p in parts]))
 
 
-@lru_cache(maxsize=4)
-def robot_from_file(urdf_path: str, package_dirs: tuple):
-    """The machine a Dask worker rebuilds from its URDF, once per process (Pinocchio's closures do not pickle)."""
-    return load_urdf(urdf_path, list(package_dirs))
-
-
 @dataclass
 class MachineFit:
     """One repetition of a mode study: a simulated machine drawn from `rng`, its data set make(study),
     the fit; returns (largest validation tool-tip error (m), rank of the fit). make=None: the machine's
-    error before calibration (nominal model) and rank 0. Pickled (for Dask) with the robot's URDF path in
-    place of the robot, which the worker loads again."""
+    error before calibration (nominal model) and rank 0. Pickled whole for Dask, robot included."""
     robot: object
     tool: sm.Tool
     make: Callable | None
     fix_platform_joints: bool = False
     study_options: dict = field(default_factory=dict)   # ModeStudy's sig_p, sig_a, sigma_parameters, ...
-
-    def __getstate__(self):
-        if self.robot.urdf_path is None:
-            raise InputError("a Stewart study spread over Dask needs a robot loaded from a URDF file", field="robot")
-        return {**self.__dict__, "robot": (str(self.robot.urdf_path), tuple(map(str, self.robot.package_dirs)))}
-
-    def __setstate__(self, state):
-        self.__dict__.update(state, robot=robot_from_file(*state["robot"]))
 
     def __call__(self, rng: np.random.Generator) -> tuple[float, int]:
         study = ModeStudy(self.robot, self.tool, rng, **self.study_options)
