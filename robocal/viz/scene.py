@@ -39,6 +39,18 @@ FORMAT = "robocal-scene"
 VERSION = 2
 SUPPORTED = (1, 2)
 STATES = ("before", "after")
+# Beyond this many samples no scene is written: at 10000 UR5 poses scene.json is already ~37 MB and takes
+# ~2 s, and a million would be gigabytes that no browser draws. Said on the command line, not silent.
+MAX_SAMPLES = 10000
+
+
+def scene_refusal(problem) -> str | None:
+    """Why no scene is written for `problem` (a Problem or a config Setup), or None if one is."""
+    n = len(getattr(problem, "problem", problem).values)
+    if n <= MAX_SAMPLES:
+        return None
+    return (f"no scene.json (no 3D check, no scene in the report): {n} samples exceed the visual check's "
+            f"{MAX_SAMPLES}; fit a subset of them to look at it")
 
 
 def _pose7(M: pin.SE3) -> list[float]:
