@@ -80,3 +80,10 @@ def test_a_training_window_too_short_to_choose_the_prior_weight(case):
     cfg["windows"]["train"] = [2.0, 4.5]
     err = run_and_expect(cfg, tmp_path, "prior weight|widen")
     assert err.field == "windows.train"
+
+
+def test_positions_in_degrees_are_refused_naming_file_row_and_column(case):
+    cfg, tmp_path = case
+    path = rewrite(cfg, "position", lambda d: d.__setitem__((slice(None), slice(2, None)), np.degrees(d[:, 2:])))
+    err = run_and_expect(cfg, tmp_path, "outside the joint's limits")
+    assert err.source == path and err.field == "- arm_1_joint_position" and err.row == 2

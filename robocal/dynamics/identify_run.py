@@ -83,6 +83,7 @@ def identify_from_config(path_or_dict, base_dir=None) -> IdentifyResult:
     rec_idx = [velocity_index(model, j) for j in recorded]
     _check_windows(cfg, log)
     _check_motion(cfg, log, rec_cols)
+    _check_limits(cfg, log, model)
     scale = np.array([cfg.torque_scale[j] for j in recorded])
     offset = np.array([cfg.torque_offset.get(j, 0.0) for j in recorded])
     tau = log.effort[:, rec_cols] * scale + offset
@@ -169,6 +170,30 @@ def _check_motion(cfg: IdentifyConfig, log: JointLog, rec_cols: list[int]) -> No
             raise InputError(f"joint moves by {span:.3g} (< windows.min_motion = {cfg.min_motion:g}) in the "
                              f"training window {list(cfg.train)} s: the trajectory does not excite it",
                              source=log.files["position"], field=pattern.format(joint=cfg.joints[k]))
+
+
+LIMIT_MARGIN = 0.05     # of the joint's range: encoders overshoot a soft limit a little, degrees by 57x
+
+
+def _check_limits(cfg: IdentifyConfig, log: JointLog, model: pin.Model) -> None:
+    """A position far outside the URDF's joint limits is a unit or column mix-up (degrees, millimetres, a
+    joint's column swapped), not motion: said with its file, row and column before anything is fitted."""
+    pattern = cfg.patterns.get("position", "- {joint}_position")
+    for k, name in enumerate(cfg.joints):
+        joint = model.joints[model.getJointId(name)]
+        if joint.nq != 1:
+            continue
+        lo, hi = model.lowerPositionLimit[joint.idx_q], model.upperPositionLimit[joint.idx_q]
+        if not (np.isfinite(lo) and np.isfinite(hi)) or hi <= lo:
+            continue
+        margin = LIMIT_MARGIN * (hi - lo)
+        outside = np.flatnonzero((log.q[:, k] < lo - margin) | (log.q[:, k] > hi + margin))
+        if len(outside):
+            i = int(outside[0])
+            raise InputError(f"position {log.q[i, k]:.6g} is outside the joint's limits [{lo:.4g}, {hi:.4g}] of the "
+                             f"URDF ({len(outside)} rows in all): degrees or millimetres instead of radians or "
+                             "metres, or another joint's column?", source=log.files["position"], row=i + 2,
+                             field=pattern.format(joint=name))
 
 
 def _within_noise(reg: Regressor, tau: np.ndarray, ols: BaseFit, fit: ConsistentFit, beta_c: np.ndarray) -> dict:
