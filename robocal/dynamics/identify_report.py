@@ -11,6 +11,8 @@ from pathlib import Path
 import numpy as np
 
 from robocal.dynamics.identify_run import MODELS, IdentifyResult
+from robocal.dynamics.inertial import parameter_vector
+from robocal.dynamics.urdf_inertials import identified_urdf
 from robocal.io.output import write_folder
 
 LABELS = {"cad": "CAD (URDF)", "ols": "OLS base parameters", "consistent": "physically consistent"}
@@ -20,6 +22,17 @@ def torque_units(res: IdentifyResult) -> list[str]:
     """N for a prismatic recorded joint, N m for a revolute one."""
     return ["N" if res.model.joints[res.model.getJointId(j)].shortname().startswith("JointModelP") else "N m"
             for j in res.recorded]
+
+
+def urdf_of(res: IdentifyResult) -> tuple[str, bytes | None, list[str]]:
+    """(file name, URDF bytes or None, why not): the input URDF carrying the consistent model's inertias
+    (urdf_inertials.py); none when the solver stopped short or an edited link would not be realisable."""
+    name = f"{Path(res.config.urdf).stem}_identified.urdf"
+    if not res.consistent.converged:
+        return name, None, [f"the consistent fit's solver stopped short (status {res.consistent.status})"]
+    data, reasons = identified_urdf(Path(res.config.urdf).read_text(encoding="utf-8"), res.model,
+                                    res.consistent.inertial, parameter_vector(res.model))
+    return name, data, reasons
 
 
 def result_dict(res: IdentifyResult) -> dict:
@@ -49,7 +62,13 @@ def result_dict(res: IdentifyResult) -> dict:
         "training_rms": res.training_rms,
         "consistent_vs_ols": res.within_noise,
         "external_force_rms_N": res.wrench_rms,
+        "identified_urdf": identified_urdf_entry(res),
     }
+
+
+def identified_urdf_entry(res: IdentifyResult) -> dict:
+    name, data, reasons = urdf_of(res)
+    return {"file": name if data is not None else None, "not_written_because": reasons}
 
 
 def summary_text(res: IdentifyResult) -> str:
@@ -96,6 +115,12 @@ def summary_text(res: IdentifyResult) -> str:
               "world axis x, y, z (force only):"]
     for m in MODELS:
         lines.append(f"  {LABELS[m]:24s}" + "  ".join(f"{f:8.3f} N" for f in res.wrench_rms[m]))
+    entry = d["identified_urdf"]
+    if entry["file"]:
+        lines += ["", f"Identified URDF: {entry['file']} (the consistent inertias on each body's own link; rotor "
+                      "inertias and friction are in result.json)."]
+    else:
+        lines += ["", "No identified URDF written: " + "; ".join(entry["not_written_because"]) + "."]
     return "\n".join(lines) + "\n"
 
 
@@ -113,6 +138,9 @@ def torque_figure(res: IdentifyResult) -> bytes:
 def write_identification(res: IdentifyResult, out_dir: str | Path, force: bool = False) -> dict[str, Path]:
     files = {"result.json": json.dumps(result_dict(res), indent=1).encode(),
              "summary.txt": summary_text(res).encode()}
+    name, urdf, _ = urdf_of(res)
+    if urdf is not None:
+        files[name] = urdf
     try:
         files["torque_validation.png"] = torque_figure(res)
     except ImportError:

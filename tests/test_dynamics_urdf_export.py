@@ -1,0 +1,61 @@
+"""`robocal identify` writes the input URDF with the consistent model's inertias: reloaded and reduced to
+the same joints it carries exactly the identified bodies; it is not written when an edited link would
+not be realisable on its own, nor when the solver stopped short; the input URDF is never touched."""
+import dataclasses
+import hashlib
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from robocal.dynamics.identify_config import reduced_model
+from robocal.dynamics.identify_report import summary_text, urdf_of, write_identification
+from robocal.dynamics.identify_run import identify_from_config
+from robocal.dynamics.inertial import parameter_vector
+from robocal.dynamics.urdf_inertials import identified_urdf
+from ur5_dynamics_cases import write_ur5_log
+
+
+@pytest.fixture(scope="module")
+def ur5(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("ur5_log")
+    path, _, _ = write_ur5_log(folder)
+    return identify_from_config(path)
+
+
+def digest(path) -> str:
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def test_the_written_urdf_carries_the_identified_bodies(ur5, tmp_path):
+    before = digest(ur5.config.urdf)
+    files = write_identification(ur5, tmp_path / "out")
+    name, _, reasons = urdf_of(ur5)
+    assert reasons == [] and name in files and "Identified URDF" in summary_text(ur5)
+    reloaded = parameter_vector(reduced_model(files[name], ur5.config.joints))
+    scale = np.abs(ur5.consistent.inertial).max()
+    np.testing.assert_allclose(reloaded, ur5.consistent.inertial, rtol=0, atol=1e-12 * scale)
+    # the CAD model itself round-trips to its own parameters (the edit is the change, nothing else)
+    cad = parameter_vector(ur5.model)
+    same, _ = identified_urdf(Path(ur5.config.urdf).read_text(), ur5.model, cad, cad)
+    (tmp_path / "cad.urdf").write_bytes(same)
+    np.testing.assert_allclose(parameter_vector(reduced_model(tmp_path / "cad.urdf", ur5.config.joints)), cad,
+                               rtol=0, atol=1e-12 * np.abs(cad).max())
+    assert digest(ur5.config.urdf) == before
+
+
+def test_a_link_left_unrealisable_blocks_the_urdf_and_is_named(ur5):
+    cad = parameter_vector(ur5.model)
+    lighter = cad.copy()
+    lighter[10:20] = -0.5 * cad[10:20]          # the second body "loses" 1.5 times what it has
+    data, reasons = identified_urdf(Path(ur5.config.urdf).read_text(), ur5.model, lighter, cad)
+    assert data is None and len(reasons) == 1
+    assert "shoulder_lift_joint" in reasons[0] and "upper_arm_link" in reasons[0]
+
+
+def test_no_urdf_when_the_solver_stopped_short(ur5, tmp_path):
+    stopped = dataclasses.replace(ur5, consistent=dataclasses.replace(ur5.consistent, converged=False,
+                                                                      status="MaxIterations"))
+    files = write_identification(stopped, tmp_path / "out")
+    assert not any(str(n).endswith(".urdf") for n in files)
+    assert "No identified URDF written: the consistent fit's solver stopped short" in summary_text(stopped)
