@@ -32,9 +32,15 @@ def test_the_written_urdf_carries_the_identified_bodies(ur5, tmp_path):
     files = write_identification(ur5, tmp_path / "out")
     name, _, reasons = urdf_of(ur5)
     assert reasons == [] and name in files and "Identified URDF" in summary_text(ur5)
-    reloaded = parameter_vector(reduced_model(files[name], ur5.config.joints))
+    model = reduced_model(files[name], ur5.config.joints)
     scale = np.abs(ur5.consistent.inertial).max()
-    np.testing.assert_allclose(reloaded, ur5.consistent.inertial, rtol=0, atol=1e-12 * scale)
+    np.testing.assert_allclose(parameter_vector(model), ur5.consistent.inertial, rtol=0, atol=1e-12 * scale)
+    # friction as <dynamics damping friction>, which Pinocchio reads into model.damping and model.friction
+    extra = dict(zip(ur5.consistent_extra_names(), ur5.consistent.extra))
+    for joint in ur5.recorded:
+        iv = model.joints[model.getJointId(joint)].idx_v
+        assert model.damping[iv] == pytest.approx(extra[f"{joint}.viscous"], rel=1e-12)
+        assert model.friction[iv] == pytest.approx(extra[f"{joint}.coulomb"], rel=1e-12)
     # the CAD model itself round-trips to its own parameters (the edit is the change, nothing else)
     cad = parameter_vector(ur5.model)
     same, _ = identified_urdf(Path(ur5.config.urdf).read_text(), ur5.model, cad, cad)

@@ -30,8 +30,13 @@ def urdf_of(res: IdentifyResult) -> tuple[str, bytes | None, list[str]]:
     name = f"{Path(res.config.urdf).stem}_identified.urdf"
     if not res.consistent.converged:
         return name, None, [f"the consistent fit's solver stopped short (status {res.consistent.status})"]
+    friction: dict[str, dict[str, float]] = {}
+    for value, term in zip(res.consistent.extra, res.consistent_extra_names()):
+        joint, kind = term.rsplit(".", 1)
+        if kind in ("viscous", "coulomb"):         # the terms URDF's <dynamics damping friction> holds
+            friction.setdefault(joint, {})[kind] = float(value)
     data, reasons = identified_urdf(Path(res.config.urdf).read_text(encoding="utf-8"), res.model,
-                                    res.consistent.inertial, parameter_vector(res.model))
+                                    res.consistent.inertial, parameter_vector(res.model), friction)
     return name, data, reasons
 
 
@@ -117,8 +122,9 @@ def summary_text(res: IdentifyResult) -> str:
         lines.append(f"  {LABELS[m]:24s}" + "  ".join(f"{f:8.3f} N" for f in res.wrench_rms[m]))
     entry = d["identified_urdf"]
     if entry["file"]:
-        lines += ["", f"Identified URDF: {entry['file']} (the consistent inertias on each body's own link; rotor "
-                      "inertias and friction are in result.json)."]
+        lines += ["", f"Identified URDF: {entry['file']} (the consistent inertias on each body's own link, viscous "
+                      "and Coulomb friction as <dynamics damping friction>; rotor inertias and offsets are in "
+                      "result.json)."]
     else:
         lines += ["", "No identified URDF written: " + "; ".join(entry["not_written_because"]) + "."]
     return "\n".join(lines) + "\n"

@@ -7,8 +7,10 @@ added to the body's own URDF link, the joint's child link, whose frame is the jo
 link stays as written. So the written URDF, reduced to the same joints, carries exactly the identified
 bodies (a test reloads it). Each edited link must remain a realisable mass distribution on its own: when
 one does not (the fit took away more mass than that link has, the rest sitting in its fixed children or
-locked subtrees), no URDF is written and the reason names the link. Rotor inertias and friction have no
-<inertial> place: they stay in result.json. Everything else in the file is kept by lxml.
+locked subtrees), no URDF is written and the reason names the link. Identified viscous and Coulomb
+friction go to the joints' <dynamics damping friction> (Pinocchio reads them into model.damping and
+model.friction); rotor inertias and torque offsets have no URDF element and stay in result.json.
+Everything else in the file is kept by lxml.
 """
 from __future__ import annotations
 
@@ -55,11 +57,23 @@ def write_inertial(link_el, params10: np.ndarray) -> None:
         INERTIA_KEYS, ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)))})
 
 
-def identified_urdf(urdf_text: str, model: pin.Model, identified: np.ndarray,
-                    cad: np.ndarray) -> tuple[bytes | None, list[str]]:
+def write_friction(joint_el, viscous: float | None, coulomb: float | None) -> None:
+    """Set the joint's <dynamics damping="viscous" friction="coulomb"/>, keeping what is not given."""
+    dyn = joint_el.find("dynamics")
+    if dyn is None:
+        dyn = etree.SubElement(joint_el, "dynamics")
+    if viscous is not None:
+        dyn.set("damping", format_number(viscous))
+    if coulomb is not None:
+        dyn.set("friction", format_number(coulomb))
+
+
+def identified_urdf(urdf_text: str, model: pin.Model, identified: np.ndarray, cad: np.ndarray,
+                    friction: dict[str, dict[str, float]] | None = None) -> tuple[bytes | None, list[str]]:
     """(URDF bytes, []) with every moving body of `model` (the reduced model) carrying `identified`
     (10 per body), or (None, reasons) when an edited link would not be realisable on its own.
-    cad: the model's own parameters (robocal.dynamics.inertial.parameter_vector)."""
+    cad: the model's own parameters (robocal.dynamics.inertial.parameter_vector); friction: per joint,
+    {'viscous': ..., 'coulomb': ...} (either may be missing) for <dynamics>."""
     root = etree.fromstring(urdf_text.encode("utf-8"))
     joints = {j.get("name"): j for j in root.findall("joint")}
     links = {lk.get("name"): lk for lk in root.findall("link")}
@@ -78,4 +92,6 @@ def identified_urdf(urdf_text: str, model: pin.Model, identified: np.ndarray,
         write_inertial(links[child], new)
     if reasons:
         return None, reasons
+    for name, terms in (friction or {}).items():
+        write_friction(joints[name], terms.get("viscous"), terms.get("coulomb"))
     return etree.tostring(root, xml_declaration=True, encoding="utf-8"), []
