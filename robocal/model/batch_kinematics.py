@@ -212,8 +212,15 @@ class BatchKinematics:
             J[...] = 0.0
         else:
             # offsets act through the joints' columns Ad(X_j) S_j: folded into the placement map, one GEMM
-            # serves both (the (n*6, 6 n_joints) regressors times a (6 n_joints, n_free) map)
-            np.matmul(reg.reshape(6 * n, 6 * nj), tmap, out=J.reshape(6 * n, nf))
+            # serves both (the (n*6, 6 n_joints) regressors times a (6 n_joints, n_free) map); only the
+            # joints that support the frame have non-zero regressor columns (a branched tree: the others
+            # are skipped, the product is the same)
+            flat = reg.reshape(6 * n, 6 * nj)
+            support = supporting_columns(model, model.frames[fid].parentJoint)
+            if len(support) == 6 * nj:
+                np.matmul(flat, tmap, out=J.reshape(6 * n, nf))
+            else:
+                np.matmul(flat[:, support], tmap[support], out=J.reshape(6 * n, nf))
         if ms.compliance_cols or ms.backlash_cols:
             Jq = np.einsum("nijk,jk->nij", reg.reshape(n, 6, nj, 6), self.constants.subspace)   # (n, 6, nv)
             tau = self.constants.tau
@@ -235,3 +242,8 @@ def contiguous(cols: np.ndarray):
     if len(cols) and cols[-1] - cols[0] + 1 == len(cols):
         return slice(int(cols[0]), int(cols[-1]) + 1)
     return cols
+
+
+def supporting_columns(model, jid: int) -> np.ndarray:
+    """Columns of a (6, 6 n_joints) kinematic regressor of joint jid that can be non-zero: its supports'."""
+    return np.array([6 * (j - 1) + c for j in model.supports[jid][1:] for c in range(6)], dtype=int)
