@@ -137,3 +137,19 @@ def test_no_free_parameter_still_gives_residuals():
     problem.params.fix("*")
     ev = problem.evaluate()
     assert ev.J.shape == (len(ev.r), 0) and _relative(ev.r, reference_evaluate(problem).r) < RTOL
+
+
+def test_unordered_and_repeated_samples_match_the_reference():
+    """A block whose samples are not increasing (and repeat) takes the batched path through np.unique and
+    back: its rows must still be the reference's."""
+    rng = np.random.default_rng(5)
+    problem = _problem(rng)
+    samples = np.array([7, 3, 3, 12, 0, 7])
+    problem.residuals.append(PointResidual("unordered", "tcp", samples, rng.normal(0.4, 0.2, (len(samples), 3)),
+                                           point=(0.01, 0.0, 0.02)))
+    problem = Problem(problem.robot, problem.params, problem.joint_names, problem.values, problem.residuals,
+                      directions=problem.directions)
+    ev, ref = problem.evaluate(), reference_evaluate(problem)
+    rows = problem.blocks[-1].rows if problem.blocks[-1].name == "unordered" else problem.blocks[-2].rows
+    assert _relative(ev.r[rows], ref.r[rows]) < RTOL
+    assert _relative(ev.J[rows], ref.J[rows]) < RTOL

@@ -152,8 +152,8 @@ class Problem:
                         direct = out is not None and n_keep == res.dim
                         # the row scales and the frame's placement folded into the (n, dim, 6) derivative:
                         # no extra pass over J
-                        Jt = np.matmul((t.D * scale[:, None]) @ fa.to_frame, fa.jacobian,
-                                       out=out[rows].reshape(n_t, res.dim, n_free) if direct else None)
+                        Jt = fa.project((t.D * scale[:, None]) @ fa.to_frame,
+                                        out=out[rows].reshape(n_t, res.dim, n_free) if direct else None)
                         for j, c, w in aux_cols:
                             Jt[:, :, c] += w * t.aux[:, :, j] * scale
                         Jt = (Jt if n_keep == res.dim else Jt[:, keep]).reshape(n_t * n_keep, n_free)

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
+from robocal.model.joint_jacobian_parts import JointJacobianParts
 from robocal.model.lie_arrays import adjoint_inverse, transpose
 from robocal.model.robot import ConfigurationMap
 
@@ -48,8 +49,9 @@ class FrameArrays:
     moves with the free parameters: `jacobian` (n, 6, n_free) is the LOCAL twist of the frame's parent joint
     per free parameter and the frame's own LOCAL twist is `to_frame` @ jacobian (a constant 6x6: the frame's
     placement on its joint), so a residual folds `to_frame` into its (n, d, 6) derivative instead of a pass
-    over the (n, 6, n_free) array. `jacobian` is a work array, valid until the next `frame` call for the same
-    frame on the same problem; None when only poses were asked for."""
+    over the (n, 6, n_free) array. A serial robot keeps that Jacobian as its parts (`joint`,
+    joint_jacobian_parts.py) and `jacobian` is None: `project(M)` gives M @ J either way. Both are valid until
+    the next `frame` call for the same frame on the same problem; None when only poses were asked for."""
 
     R: np.ndarray
     p: np.ndarray
@@ -57,6 +59,13 @@ class FrameArrays:
     p0: np.ndarray
     jacobian: np.ndarray | None
     to_frame: np.ndarray | None = None
+    joint: JointJacobianParts | None = None     # the parent joint's Jacobian as its parts (serial robots)
+
+    def project(self, M: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+        """(n, d, n_free) = M @ `jacobian` for M (n, d, 6), without forming `jacobian` when it is kept as parts."""
+        if self.joint is not None:
+            return self.joint.project(M, out)
+        return np.matmul(M, self.jacobian, out=out)
 
 
 class SampleConstants:
@@ -194,47 +203,45 @@ class BatchKinematics:
         Rb, pb = ms.base.rotation, ms.base.translation
         R = Rb @ R0
         p = p0 @ Rb.T + pb
-        J = self.joint_jacobian(fid, unique, reg, Ri, pi) if jacobian else None
+        joint = self.joint_jacobian(fid, unique, reg, Ri, pi) if jacobian else None
         to_frame = placement.inverse().toActionMatrix()
         if back is None:
-            return FrameArrays(R, p, R0, p0, J, to_frame)
-        return FrameArrays(R[back], p[back], R0[back], p0[back], None if J is None else J[back], to_frame)
+            return FrameArrays(R, p, R0, p0, None, to_frame, joint)
+        return FrameArrays(R[back], p[back], R0[back], p0[back], None if joint is None else joint.dense()[back],
+                           to_frame)
 
     def joint_jacobian(self, fid: int, samples: np.ndarray, reg: np.ndarray, Ri: np.ndarray,
-                       pi: np.ndarray) -> np.ndarray:
-        """(n, 6, n_free) LOCAL twist of frame fid's parent joint (pose (Ri, pi) on the robot) per free
-        parameter, from the joint's regressors; frame and base columns are carried into the joint's frame."""
+                       pi: np.ndarray) -> JointJacobianParts:
+        """LOCAL twist of frame fid's parent joint (pose (Ri, pi) on the robot) per free parameter at the
+        samples, as its parts (joint_jacobian_parts.py); frame and base columns are carried into the joint's
+        frame."""
         ms, model = self.ms, self.model
         n, nj, nf = len(samples), model.njoints - 1, ms.n_free
-        J = self.constants.buffer(("jacobian", fid), (n, 6, nf))
         tmap = self.twist_map(ms)
-        if not tmap.any():       # only frames and the base are free (a registration): no joint term
-            J[...] = 0.0
-        else:
+        parts = JointJacobianParts(n, nf, None, None)
+        if tmap.any():
             # offsets act through the joints' columns Ad(X_j) S_j: folded into the placement map, one GEMM
-            # serves both (the (n*6, 6 n_joints) regressors times a (6 n_joints, n_free) map); only the
-            # joints that support the frame have non-zero regressor columns (a branched tree: the others
-            # are skipped, the product is the same)
-            flat = reg.reshape(6 * n, 6 * nj)
+            # serves both (regressors times a (6 n_joints, n_free) map); only the joints that support the
+            # frame have non-zero regressor columns (a branched tree: the others are skipped, same product)
             support = supporting_columns(model, model.frames[fid].parentJoint)
             if len(support) == 6 * nj:
-                np.matmul(flat, tmap, out=J.reshape(6 * n, nf))
+                parts.regressors, parts.tmap = reg, tmap
             else:
-                np.matmul(flat[:, support], tmap[support], out=J.reshape(6 * n, nf))
+                parts.regressors, parts.tmap = reg[:, :, support], tmap[support]
         if ms.compliance_cols or ms.backlash_cols:
             Jq = np.einsum("nijk,jk->nij", reg.reshape(n, 6, nj, 6), self.constants.subspace)   # (n, 6, nv)
             tau = self.constants.tau
             for k, iv, c, w in ms.compliance_cols:          # d q_link / d c = -tau_g
-                J[:, :, c] -= w * Jq[:, :, iv] * tau[samples, k][:, None]
+                parts.add(slice(c, c + 1), -w * (Jq[:, :, iv] * tau[samples, k][:, None])[:, :, None])
             for k, iv, c, w in ms.backlash_cols:            # d q_link / d b = d
-                J[:, :, c] += w * Jq[:, :, iv] * self.directions[samples, k][:, None]
+                parts.add(slice(c, c + 1), w * (Jq[:, :, iv] * self.directions[samples, k][:, None])[:, :, None])
         if fid in ms.P_frame:                  # constant columns, the frame's own only, seen from the joint
             cols = contiguous(np.flatnonzero(np.any(ms.P_frame[fid] != 0.0, axis=0)))
-            J[:, :, cols] += (model.frames[fid].placement.toActionMatrix() @ ms.P_frame[fid])[:, cols]
+            parts.add(cols, (model.frames[fid].placement.toActionMatrix() @ ms.P_frame[fid])[:, cols])
         if ms.has_base_params:
             cols = contiguous(np.flatnonzero(np.any(ms.P_base != 0.0, axis=0)))    # the base's own columns only
-            J[:, :, cols] += adjoint_inverse(Ri, pi) @ ms.P_base[:, cols]
-        return J
+            parts.add(cols, adjoint_inverse(Ri, pi) @ ms.P_base[:, cols])
+        return parts
 
 
 def contiguous(cols: np.ndarray):
