@@ -63,16 +63,6 @@ def figaroh_request(res) -> dict:
             **{kind: str(path) for kind, path in cfg.files.items()}}
 
 
-def logged_torque(res, times: np.ndarray) -> np.ndarray:
-    """The recorded joints' torque from the log, unfiltered, linearly interpolated to `times`."""
-    cfg = res.config
-    log = load_joint_log({k: str(p) for k, p in cfg.files.items()}, cfg.joints, cfg.time_column, cfg.patterns)
-    cols = [cfg.joints.index(j) for j in res.recorded]
-    tau = log.effort[:, cols] * np.array([cfg.torque_scale[j] for j in res.recorded]) + np.array(
-        [cfg.torque_offset.get(j, 0.0) for j in res.recorded])
-    return np.column_stack([np.interp(times, log.t, tau[:, k]) for k in range(len(cols))])
-
-
 def heldout_tables(res, figaroh: dict | None, units: list[str]) -> list[str]:
     """Per-joint held-out RMSE of CAD, FIGAROH, robocal OLS and consistent, against both targets."""
     times = res.curves["t"]
@@ -83,7 +73,7 @@ def heldout_tables(res, figaroh: dict | None, units: list[str]) -> list[str]:
     predictions.update({"robocal OLS": res.curves["ols"], "robocal consistent": res.curves["consistent"]})
     out = []
     for title, target in (("low-pass filtered torque (robocal's validation target)", res.curves["measured"]),
-                          ("logged torque, unfiltered", logged_torque(res, times))):
+                          ("logged torque, unfiltered", res.curves["logged"])):
         out += [f"\nheld-out torque RMSE on {len(times)} samples of {list(res.config.validate)} s, against the {title}",
                 "| model | " + " | ".join(f"{j} ({u})" for j, u in zip(res.recorded, units)) + " |",
                 "|---" * (len(res.recorded) + 1) + "|"]

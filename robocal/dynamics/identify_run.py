@@ -36,8 +36,9 @@ class IdentifyResult:
     processed: the filtered log (full rate); train, check: masks over its decimated samples
     (processed.decimated(processed.t)); ols, consistent,
     prior: the fits; consistency: {body: (smallest pseudo-inertia eigenvalue, realisable)} of the
-    consistent model; validation: {model: {'rmse': [...], 'percent_of_range': [...]}} on the
-    validation window; training_rms: {model: [...]}; torque_range: per joint on the validation
+    consistent model; validation: {model: {'rmse': [...], 'percent_of_range': [...],
+    'rmse_against_logged': [...]}} on the validation window (against the filtered torque, and against the
+    logged torque itself); training_rms: {model: [...]}; torque_range: per joint on the validation
     window; within_noise: comparison of the consistent and unconstrained fits; wrench_rms:
     {model: [fx, fy, fz] N}; curves: validation time, measured and predicted torques for plots."""
 
@@ -135,11 +136,16 @@ def identify_from_config(path_or_dict, base_dir=None) -> IdentifyResult:
     predict = {"cad": lambda reg: (reg.X[:, :reg.n_inertial] @ cad).reshape(-1, len(rec_idx)),
                "ols": ols.predict, "consistent": consistent.predict}
     t_range = (tau_check.max(axis=0) - tau_check.min(axis=0)).tolist()
-    validation, training_rms, curves = {}, {}, {"t": t_dec[check], "measured": tau_check}
+    # the logged torque itself at the same times (linear interpolation, no filter): a target that does not
+    # depend on robocal's cut-off, for comparing with other tools
+    logged = np.column_stack([np.interp(t_dec[check], log.t, tau[:, k]) for k in range(len(rec_idx))])
+    validation, training_rms = {}, {}
+    curves = {"t": t_dec[check], "measured": tau_check, "logged": logged}
     for name, f in predict.items():
         pred = f(reg_check)
         rmse = np.sqrt(np.mean((pred - tau_check) ** 2, axis=0))
-        validation[name] = {"rmse": rmse.tolist(), "percent_of_range": (100 * rmse / np.array(t_range)).tolist()}
+        validation[name] = {"rmse": rmse.tolist(), "percent_of_range": (100 * rmse / np.array(t_range)).tolist(),
+                            "rmse_against_logged": np.sqrt(np.mean((pred - logged) ** 2, axis=0)).tolist()}
         training_rms[name] = np.sqrt(np.mean((f(reg_train) - tau_train) ** 2, axis=0)).tolist()
         curves[name] = pred
     bodies = {model.names[j]: p for j, p in zip(range(1, model.njoints), consistent.inertial.reshape(-1, 10))}
