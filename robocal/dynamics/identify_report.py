@@ -1,6 +1,7 @@
-"""Output of `robocal identify dyn.yaml`: result.json, summary.txt and torque_validation.png
-(measured vs predicted torque per recorded joint on the validation window), written atomically
-(robocal.io.output.write_folder: an error leaves no half-written folder). See docs/dynamics_tiago.md.
+"""Output of `robocal identify dyn.yaml`: result.json, summary.txt, torque_validation.png (measured vs
+predicted torque per recorded joint on the validation window) and, when it can be written, the URDF with
+the identified inertias and friction; written atomically (robocal.io.output.write_folder: an error leaves
+no half-written folder). See docs/dynamics_tiago.md.
 """
 from __future__ import annotations
 
