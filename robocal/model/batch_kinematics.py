@@ -92,15 +92,6 @@ class SampleConstants:
                 self.subspace[jm.idx_v:jm.idx_v + jm.nv] = J[:, jm.idx_v:jm.idx_v + jm.nv].T
         self.regressors: dict = {}                  # frame id -> (q, joint placements, regressors) of the last pass
         self.data = None                            # Pinocchio workspace of the batched passes
-        self.buffers: dict = {}
-
-    def buffer(self, key, shape) -> np.ndarray:
-        """A work array kept between passes: writing into memory already mapped is several times faster
-        than into a fresh array (its pages fault in on first touch), which matters at 10^4 samples."""
-        b = self.buffers.get(key)
-        if b is None or b.shape != shape:
-            b = self.buffers[key] = np.empty(shape)
-        return b
 
     def matches(self, values: np.ndarray) -> bool:
         return self.values.shape == values.shape and np.array_equal(self.values, values)

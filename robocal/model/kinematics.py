@@ -106,7 +106,6 @@ class ModelState:
             raise ValueError("transmission parameters need a robot with joint relations (screw transmissions or "
                              "couplings)")
 
-
     @property
     def data(self) -> pin.Data:
         """The calibrated model's Data, made on first use (a batched pass never needs it)."""
@@ -117,6 +116,7 @@ class ModelState:
     @property
     def kin_data(self) -> pin.Data:
         return self._kin_data if self._kin_data is not None else self.data
+
     def _setup_relations(self, params: ParameterSet, col: dict) -> None:
         """Joint relations (screw transmissions, couplings) of a closed chain, and their parameters.
 

@@ -19,13 +19,12 @@ MAX_LAYOUTS = 16     # per robot; a fit uses a handful (registration, selection,
 
 @dataclass
 class PlacementGroup:
-    """A 6D placement (joint, frame or base) with at least one parameter: its component parameters
-    (`names[c]`, None where the component has none: value 0) and `selector` (6, n_free), so that the
-    group's block of d(placement twist)/d(free parameters) is Jexp6(delta) @ selector."""
+    """A 6D placement (joint, frame or base) with at least one parameter, and `selector` (6, n_free), so that
+    the group's block of d(placement twist)/d(free parameters) is Jexp6(delta) @ selector (its six values:
+    StateLayout.group_value_index)."""
 
     kind: str
     target: str
-    value_index: np.ndarray      # (6,) index into the layout's value vector, -1: no parameter
     selector: np.ndarray
 
 
@@ -34,10 +33,8 @@ class StateLayout:
     parameter whose value the state reads, in one vector (`values`)."""
 
     def __init__(self, robot, params: ParameterSet, joint_names: list[str]):
-        self.robot = robot                # held so that a layout cannot outlive the robot it describes
         model = robot.model
-        self.free_names = params.free_names
-        self.n_free = len(self.free_names)
+        self.n_free = len(params.free_names)
         col = params.column_map()        # parameter -> [(free column, coefficient)]; ties act on their leaders
         self.columns = col
         read_v = {name: (k, model.joints[robot.joint_id(name)].idx_v) for k, name in enumerate(joint_names)}
@@ -77,21 +74,19 @@ class StateLayout:
                       for kind, e in reads.items()}
         # frames first: a joint below a calibrated frame gets that change before its own placement error;
         # among frames, parents first, so a calibrated frame below another takes its parent's change
-        self.groups = []
+        self.groups, slots = [], []
         for kind, target in sorted(groups, key=lambda g: (g[0] != "frame_placement", _frame_depth(robot, g))):
             prefix = "base" if kind == "base" else target
-            slots, selector = np.full(6, -1), np.zeros((6, self.n_free))
+            selector = np.zeros((6, self.n_free))
             for c, comp in enumerate(COMPONENTS):
                 name = f"{prefix}.{comp}"
-                if name in params:
-                    slots[c] = value_slot(name)
+                slots.append(value_slot(name) if name in params else None)
                 for j, w in col.get(name, []):
                     selector[c, j] += w
-            self.groups.append(PlacementGroup(kind, target, slots, selector))
+            self.groups.append(PlacementGroup(kind, target, selector))
         self.value_names = names
         # each group's six values in the value vector extended by one 0 (a component without parameter)
-        self.group_value_index = np.array([np.where(g.value_index >= 0, g.value_index, len(names))
-                                           for g in self.groups], dtype=int).reshape(-1, 6)
+        self.group_value_index = np.array([len(names) if i is None else i for i in slots], dtype=int).reshape(-1, 6)
         self.qmap = ConfigurationMap(robot, joint_names)
         self.has_transmission = any(p.kind == "transmission" for p in params)
 
