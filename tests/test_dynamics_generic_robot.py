@@ -25,3 +25,13 @@ def test_ur5_log_through_a_config(tmp_path):
     assert res.within_noise["residual_increase_independent_rows"] >= -1e-6
     cad, ols = (np.array(res.validation[m]["rmse"]) for m in ("cad", "ols"))
     assert np.all(ols < cad)
+
+
+def test_the_command_prints_the_summary_it_wrote(tmp_path, capsys):
+    from robocal.cli.main import main
+    path, _, _ = write_ur5_log(tmp_path)
+    out = tmp_path / "out"
+    assert main(["identify", str(path), "-o", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert printed.startswith("Dynamic identification") and (out / "summary.txt").read_text() in printed
+    assert (out / "ur5_robot_identified.urdf").is_file()

@@ -9,7 +9,7 @@ def cmd_identify(args) -> int:
     for bad input (the error propagates to cli.main, which prints it and exits 2)."""
     # imported here: the dynamics stack (scipy.signal, scipy.stats) costs ~0.4 s of start-up that every
     # other command would pay
-    from robocal.dynamics.identify_report import summary_text, write_identification
+    from robocal.dynamics.identify_report import write_identification
     from robocal.dynamics.identify_run import identify_from_config
     res = identify_from_config(args.config)
     target = args.output if args.output is not None else res.config.output
@@ -17,7 +17,7 @@ def cmd_identify(args) -> int:
         raise InputError("no output folder: give -o or set `output` in the config", source=str(args.config),
                          field="output")
     files = write_identification(res, target, args.force)
-    print(summary_text(res), end="")
+    print(files["summary.txt"].read_text(encoding="utf-8"), end="")      # what was written, not a second run
     print(f"\nWrote {', '.join(str(f) for f in files.values())}")
     return 0
 

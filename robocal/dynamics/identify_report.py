@@ -41,8 +41,9 @@ def urdf_of(res: IdentifyResult) -> tuple[str, bytes | None, list[str]]:
     return name, data, reasons
 
 
-def result_dict(res: IdentifyResult) -> dict:
-    """Everything the summary states, as JSON-ready values (units in the key names)."""
+def result_dict(res: IdentifyResult, urdf: tuple | None = None) -> dict:
+    """Everything the summary states, as JSON-ready values (units in the key names). urdf: `urdf_of(res)`
+    when the caller has it already (it reads and edits the URDF file)."""
     proc, ols, fit = res.processed, res.ols, res.consistent
     bodies = res.model.names[1:]
     return {
@@ -68,17 +69,18 @@ def result_dict(res: IdentifyResult) -> dict:
         "training_rms": res.training_rms,
         "consistent_vs_ols": res.within_noise,
         "external_force_rms_N": res.wrench_rms,
-        "identified_urdf": identified_urdf_entry(res),
+        "identified_urdf": identified_urdf_entry(urdf if urdf is not None else urdf_of(res)),
     }
 
 
-def identified_urdf_entry(res: IdentifyResult) -> dict:
-    name, data, reasons = urdf_of(res)
+def identified_urdf_entry(urdf: tuple) -> dict:
+    name, data, reasons = urdf
     return {"file": name if data is not None else None, "not_written_because": reasons}
 
 
-def summary_text(res: IdentifyResult) -> str:
-    d = result_dict(res)
+def summary_text(res: IdentifyResult, d: dict | None = None) -> str:
+    """The summary; d: `result_dict(res)` when the caller has it already."""
+    d = d if d is not None else result_dict(res)
     units = d["torque_units"]
     lines = [f"Dynamic identification: {res.config.source}", ""]
     if not res.consistent.converged:        # said before any figure
@@ -153,11 +155,12 @@ def torque_figure(res: IdentifyResult) -> bytes:
 
 
 def write_identification(res: IdentifyResult, out_dir: str | Path, force: bool = False) -> dict[str, Path]:
-    files = {"result.json": json.dumps(result_dict(res), indent=1).encode(),
-             "summary.txt": summary_text(res).encode()}
-    name, urdf, _ = urdf_of(res)
-    if urdf is not None:
-        files[name] = urdf
+    urdf = urdf_of(res)
+    d = result_dict(res, urdf)
+    files = {"result.json": json.dumps(d, indent=1).encode(), "summary.txt": summary_text(res, d).encode()}
+    name, data, _ = urdf
+    if data is not None:
+        files[name] = data
     try:
         files["torque_validation.png"] = torque_figure(res)
     except ImportError:

@@ -21,7 +21,7 @@ from robocal.dynamics.identification import base_values_of
 from robocal.dynamics.identify_config import (IdentifyConfig, load_identify_config, model_columns, reduced_model,
                                               velocity_index)
 from robocal.dynamics.inertial import is_physically_consistent, parameter_vector, pseudo_inertia, with_parameters
-from robocal.dynamics.log_loading import JointLog, load_joint_log
+from robocal.dynamics.log_loading import DEFAULT_PATTERNS, JointLog, load_joint_log
 from robocal.dynamics.regression import BaseFit, Regressor, build_regressor, fit_base
 from robocal.dynamics.serial_correlation import filtered_noise_inflation
 from robocal.dynamics.wrench import WrenchMapper
@@ -169,13 +169,17 @@ def _check_windows(cfg: IdentifyConfig, log: JointLog) -> None:
 def _check_motion(cfg: IdentifyConfig, log: JointLog, rec_cols: list[int]) -> None:
     """A recorded joint that does not move in the training window cannot be identified."""
     mask = log.window(*cfg.train)
-    pattern = cfg.patterns.get("position", "- {joint}_position")
     for k in rec_cols:
         span = float(np.ptp(log.q[mask, k]))
         if span < cfg.min_motion:
             raise InputError(f"joint moves by {span:.3g} (< windows.min_motion = {cfg.min_motion:g}) in the "
                              f"training window {list(cfg.train)} s: the trajectory does not excite it",
-                             source=log.files["position"], field=pattern.format(joint=cfg.joints[k]))
+                             source=log.files["position"], field=_position_column(cfg, cfg.joints[k]))
+
+
+def _position_column(cfg: IdentifyConfig, joint: str) -> str:
+    """The position file's column of `joint` (the config's pattern, else the loader's default)."""
+    return {**DEFAULT_PATTERNS, **cfg.patterns}["position"].format(joint=joint)
 
 
 LIMIT_MARGIN = 0.05     # of the joint's range: encoders overshoot a soft limit a little, degrees by 57x
@@ -184,7 +188,6 @@ LIMIT_MARGIN = 0.05     # of the joint's range: encoders overshoot a soft limit 
 def _check_limits(cfg: IdentifyConfig, log: JointLog, model: pin.Model) -> None:
     """A position far outside the URDF's joint limits is a unit or column mix-up (degrees, millimetres, a
     joint's column swapped), not motion: said with its file, row and column before anything is fitted."""
-    pattern = cfg.patterns.get("position", "- {joint}_position")
     for k, name in enumerate(cfg.joints):
         joint = model.joints[model.getJointId(name)]
         if joint.nq != 1:
@@ -199,7 +202,7 @@ def _check_limits(cfg: IdentifyConfig, log: JointLog, model: pin.Model) -> None:
             raise InputError(f"position {log.q[i, k]:.6g} is outside the joint's limits [{lo:.4g}, {hi:.4g}] of the "
                              f"URDF ({len(outside)} rows in all): degrees or millimetres instead of radians or "
                              "metres, or another joint's column?", source=log.files["position"], row=i + 2,
-                             field=pattern.format(joint=name))
+                             field=_position_column(cfg, name))
 
 
 def _within_noise(reg: Regressor, tau: np.ndarray, ols: BaseFit, fit: ConsistentFit, beta_c: np.ndarray) -> dict:
@@ -209,15 +212,16 @@ def _within_noise(reg: Regressor, tau: np.ndarray, ols: BaseFit, fit: Consistent
     (serial_correlation.py), against the chi-square 95 % quantile."""
     w = np.tile(1.0 / ols.sigma, len(tau))
     y = tau.reshape(-1)
+    pred_ols, pred_fit = ols.predict(reg), fit.predict(reg)
     rss = lambda pred: float(np.sum(((pred.reshape(-1) - y) * w) ** 2))     # noqa: E731
-    s2 = rss(ols.predict(reg)) / ols.dof
-    increase = (rss(fit.predict(reg)) - rss(ols.predict(reg))) / s2
+    rss_ols = rss(pred_ols)
+    increase = (rss(pred_fit) - rss_ols) / (rss_ols / ols.dof)
     p = ols.selection.rank
     return {"distance_in_noise_units": increase / ols.inflation, "noise_inflation": ols.inflation,
             "residual_increase_independent_rows": increase, "chi2_95": float(chi2.ppf(0.95, p)),
             "base_parameters": p,
-            "rms_ratio": (np.sqrt(np.mean((fit.predict(reg) - tau) ** 2, axis=0))
-                          / np.sqrt(np.mean((ols.predict(reg) - tau) ** 2, axis=0))).tolist(),
+            "rms_ratio": (np.sqrt(np.mean((pred_fit - tau) ** 2, axis=0))
+                          / np.sqrt(np.mean((pred_ols - tau) ** 2, axis=0))).tolist(),
             "max_base_deviation_in_std": float(np.max(np.abs(beta_c - ols.values) / ols.std))}
 
 
