@@ -8,6 +8,7 @@ import pinocchio as pin
 import pytest
 
 from robocal.dynamics.identify_config import velocity_index
+from robocal.dynamics.constraint_cost import MEASURABLE_COST
 from robocal.dynamics.identify_report import summary_text
 from robocal.dynamics.identify_run import identify_from_config
 from robocal.dynamics.inertial import is_physically_consistent
@@ -97,3 +98,14 @@ def test_held_out_figures_against_the_logged_torque_itself(result):
     against = {m: np.array(v["rmse_against_logged"]) for m, v in result.validation.items()}
     assert np.all(against["consistent"] < against["cad"]) and np.all(against["ols"] < against["cad"])
     assert "Against the logged torque itself" in summary_text(result)
+
+
+def test_the_constraints_that_cost_the_fit_are_named(result):
+    """Each reported constraint binds (the fit without it breaks it) and, within the solver's tolerance,
+    lowers the fit's objective; the summary lists the costly ones in decreasing cost with units."""
+    costs = result.constraint_costs
+    assert costs and all(c.value_without < 0 and c.cost > -MEASURABLE_COST for c in costs)
+    assert costs[0].cost > 1
+    assert [c.cost for c in costs] == sorted((c.cost for c in costs), reverse=True)
+    text = summary_text(result)
+    assert "Binding physical constraints" in text and costs[0].constraint in text

@@ -32,8 +32,9 @@ DEFAULT_GRID = tuple(10.0 ** np.arange(-4, 2.01, 0.5))     # half-decade steps
 @dataclass
 class ConsistentFit:
     """inertial (10 nb,) physically consistent parameters; extra (n_extra,) in the regressor's
-    column order; prior_weight lambda; iterations of the conic solver; data_cost: the data part of
-    the objective (weighted units); converged: the solver met its tolerance (status: its word)."""
+    column order; prior_weight lambda; iterations of the conic solver; data_cost, prior_cost: the data
+    and prior parts of the objective (weighted units); converged: the solver met its tolerance (status:
+    its word)."""
 
     inertial: np.ndarray
     extra: np.ndarray
@@ -42,6 +43,11 @@ class ConsistentFit:
     data_cost: float
     converged: bool
     status: str = "Solved"
+    prior_cost: float = 0.0
+
+    @property
+    def objective(self) -> float:
+        return self.data_cost + self.prior_cost
 
     @property
     def params(self) -> np.ndarray:
@@ -63,8 +69,10 @@ def prior_scales(cad: np.ndarray) -> np.ndarray:
 
 
 def fit_consistent(reg: Regressor, tau: np.ndarray, sigma: np.ndarray, cad: np.ndarray,
-                   prior_weight: float) -> ConsistentFit:
-    """Consistent fit at one prior weight (psd_qp.py)."""
+                   prior_weight: float, free_bodies: tuple[int, ...] = (),
+                   free_terms: tuple[str, ...] = ()) -> ConsistentFit:
+    """Consistent fit at one prior weight (psd_qp.py). free_bodies (indices) and free_terms (extra
+    column names) are left without their constraint: constraint_cost.py's question."""
     tau = np.asarray(tau, float)
     n_in = reg.n_inertial
     if len(cad) != n_in:
@@ -73,14 +81,16 @@ def fit_consistent(reg: Regressor, tau: np.ndarray, sigma: np.ndarray, cad: np.n
     A = reg.X * w[:, None]
     y = tau.reshape(-1) * w
     names = reg.names[n_in:]
-    lower = np.array([0.0 if n.rsplit(".", 1)[-1] in NONNEGATIVE_TERMS else -np.inf for n in names])
+    lower = np.array([0.0 if n.rsplit(".", 1)[-1] in NONNEGATIVE_TERMS and n not in free_terms else -np.inf
+                      for n in names])
     prior = np.r_[(len(y) / n_in) * prior_weight / prior_scales(cad) ** 2, np.zeros(len(names))]
     H = A.T @ A + np.diag(prior)
     q = A.T @ y + prior * np.r_[cad, np.zeros(len(names))]
-    sol = solve_psd_qp(H, q, n_in // 10, lower)
+    sol = solve_psd_qp(H, q, n_in // 10, lower, free_bodies)
     data_cost = float(np.sum((A @ sol.x - y) ** 2))
+    prior_cost = float(np.sum(prior[:n_in] * (sol.x[:n_in] - cad) ** 2))
     return ConsistentFit(sol.x[:n_in], sol.x[n_in:], float(prior_weight), sol.iterations, data_cost,
-                         sol.converged, sol.status)
+                         sol.converged, sol.status, prior_cost)
 
 
 @dataclass

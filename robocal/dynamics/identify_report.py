@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from robocal.dynamics.constraint_cost import MEASURABLE_COST
 from robocal.dynamics.identify_run import MODELS, IdentifyResult
 from robocal.dynamics.inertial import parameter_vector
 from robocal.dynamics.urdf_inertials import identified_urdf
@@ -68,6 +69,8 @@ def result_dict(res: IdentifyResult, urdf: tuple | None = None) -> dict:
         "validation_torque_range": res.torque_range,
         "training_rms": res.training_rms,
         "consistent_vs_ols": res.within_noise,
+        "constraint_costs_noise_units": [{"constraint": c.constraint, "cost": c.cost, "value_without": c.value_without}
+                                         for c in res.constraint_costs],
         "external_force_rms_N": res.wrench_rms,
         "identified_urdf": identified_urdf_entry(urdf if urdf is not None else urdf_of(res)),
     }
@@ -128,8 +131,9 @@ def summary_text(res: IdentifyResult, d: dict | None = None) -> str:
               f"{wn['base_parameters']} base parameters: {wn['chi2_95']:.4g}; the filtered noise's correlation "
               f"across samples inflates variances by {wn['noise_inflation']:.3g}); per-joint RMS "
               "ratio to OLS " + ", ".join(f"{r:.3f}" for r in wn["rms_ratio"]) + ".",
-              within_noise_verdict(wn), "",
-              f"External force at {res.wrench_rms['frame']} during free motion (validation window), RMS per "
+              within_noise_verdict(wn)] + constraint_cost_lines(res.constraint_costs,
+                                                           dict(zip(res.recorded, units))) + [
+              "", f"External force at {res.wrench_rms['frame']} during free motion (validation window), RMS per "
               "world axis x, y, z (force only):"]
     for m in MODELS:
         lines.append(f"  {LABELS[m]:24s}" + "  ".join(f"{f:8.3f} N" for f in res.wrench_rms[m]))
@@ -183,3 +187,31 @@ def within_noise_verdict(wn: dict) -> str:
         return "The consistent model lies within the unconstrained fit's noise (below the 95 % quantile)."
     return ("NOTE: the consistent model lies beyond the unconstrained fit's noise (above the 95 % quantile): "
             "physical consistency costs fit on this data; compare the held-out figures above before using it.")
+
+
+def constraint_cost_lines(costs, joint_units: dict[str, str], shown: int = 5) -> list[str]:
+    """The constraints that cost the consistent fit most on the training window (constraint_cost.py);
+    joint_units: {recorded joint: 'N' or 'N m'}."""
+    if not costs:
+        return ["No physical constraint binds: the consistent fit is the unconstrained one with the prior."]
+    costly = [c for c in costs if c.cost >= MEASURABLE_COST][:shown]
+    lines = [f"Binding physical constraints: {len(costs)} (the fit without one breaks it). Those costing the fit "
+             f"at least {MEASURABLE_COST:g} noise unit (the fall of its training objective, same units, when "
+             "dropped alone; the value it then takes):"]
+    for c in costly:
+        if c.constraint.startswith("body "):
+            what, unit = "smallest pseudo-inertia eigenvalue", "kg m^2"
+        else:
+            joint, term = c.constraint.split(" ")[0].rsplit(".", 1)
+            what, unit = "value", term_unit(term, joint_units.get(joint, "N m"))
+        lines.append(f"  {c.constraint:40s} {c.cost:9.3g}   ({what} without it {c.value_without:.3g} {unit})")
+    if len(costs) > len(costly):
+        lines.append(f"  ({len(costs) - len(costly)} more in result.json)")
+    return lines
+
+
+def term_unit(term: str, torque_unit: str) -> str:
+    """Unit of an extra term of a joint whose torque is in torque_unit ('N' prismatic, 'N m' revolute)."""
+    revolute = torque_unit == "N m"
+    units = {"armature": "kg m^2" if revolute else "kg", "viscous": torque_unit + (" s/rad" if revolute else " s/m")}
+    return units.get(term, torque_unit)

@@ -15,6 +15,7 @@ import pinocchio as pin
 from scipy.stats import chi2
 
 from robocal.dynamics.consistent_fit import ConsistentFit, PriorWeightChoice, choose_prior_weight, fit_consistent
+from robocal.dynamics.constraint_cost import ConstraintCost, constraint_costs
 from robocal.dynamics.external_force import ExternalForceEstimator
 from robocal.dynamics.filtering import ProcessedLog, parallel_filter, process_log
 from robocal.dynamics.identification import base_values_of
@@ -58,6 +59,7 @@ class IdentifyResult:
     within_noise: dict
     wrench_rms: dict
     curves: dict = field(repr=False, default_factory=dict)
+    constraint_costs: list[ConstraintCost] = field(default_factory=list)
 
     def consistent_model(self) -> pin.Model:
         """The reduced model carrying the consistent inertial parameters and rotor inertias."""
@@ -153,10 +155,12 @@ def identify_from_config(path_or_dict, base_dir=None) -> IdentifyResult:
                    for b, p in bodies.items()}
     beta_c = base_values_of(ols.selection, consistent.params)
     within = _within_noise(reg_train, tau_train, ols, consistent, beta_c)
+    costs = constraint_costs(reg_train, tau_train, ols.sigma, cad, consistent,
+                             [model.names[j] for j in range(1, model.njoints)], within["noise_unit"])
     wrench = _wrench_rms(cfg, model, proc.decimated(proc.q)[check], rec_idx, {k: curves[k] for k in MODELS},
                          tau_check)
     return IdentifyResult(cfg, model, recorded, proc, train, check, ols, consistent, prior, consistency, validation,
-                          training_rms, t_range, within, wrench, curves)
+                          training_rms, t_range, within, wrench, curves, costs)
 
 
 def _check_windows(cfg: IdentifyConfig, log: JointLog) -> None:
@@ -218,6 +222,7 @@ def _within_noise(reg: Regressor, tau: np.ndarray, ols: BaseFit, fit: Consistent
     increase = (rss(pred_fit) - rss_ols) / (rss_ols / ols.dof)
     p = ols.selection.rank
     return {"distance_in_noise_units": increase / ols.inflation, "noise_inflation": ols.inflation,
+            "noise_unit": rss_ols / ols.dof * ols.inflation,
             "residual_increase_independent_rows": increase, "chi2_95": float(chi2.ppf(0.95, p)),
             "base_parameters": p,
             "rms_ratio": (np.sqrt(np.mean((pred_fit - tau) ** 2, axis=0))

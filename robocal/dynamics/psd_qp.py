@@ -48,12 +48,15 @@ class PsdQpResult:
     converged: bool
 
 
-def solve_psd_qp(H: np.ndarray, q: np.ndarray, n_bodies: int, lower: np.ndarray) -> PsdQpResult:
+def solve_psd_qp(H: np.ndarray, q: np.ndarray, n_bodies: int, lower: np.ndarray,
+                 free_bodies: tuple[int, ...] = ()) -> PsdQpResult:
     """Minimise 1/2 x^T H x - q^T x with the constraints of the module docstring.
-    lower: (n_extra,) bounds on phi (-inf where free)."""
+    lower: (n_extra,) bounds on phi (-inf where free); free_bodies: bodies left without their PSD
+    constraint (constraint_cost.py asks what each constraint costs)."""
     n = H.shape[0]
     n_in = 10 * n_bodies
-    inside = unconstrained_if_feasible(H, q, n_bodies, lower)
+    constrained = [b for b in range(n_bodies) if b not in free_bodies]
+    inside = unconstrained_if_feasible(H, q, constrained, lower)
     if inside is not None:        # the constraints are not active: the exact optimum, no interior-point margin
         return PsdQpResult(inside, 0, "Solved", True)
     diag = np.diag(H).copy()
@@ -67,7 +70,7 @@ def solve_psd_qp(H: np.ndarray, q: np.ndarray, n_bodies: int, lower: np.ndarray)
         blocks.append(A)
         rhs.append(-lower[bounded])
         cones.append(clarabel.NonnegativeConeT(len(bounded)))
-    for b in range(n_bodies):                # s = svec(pseudo_inertia(pi_b)) in the PSD cone
+    for b in constrained:                    # s = svec(pseudo_inertia(pi_b)) in the PSD cone
         A = np.zeros((10, n))
         A[:, 10 * b:10 * b + 10] = -TO_SVEC
         blocks.append(A)
@@ -86,23 +89,24 @@ def solve_psd_qp(H: np.ndarray, q: np.ndarray, n_bodies: int, lower: np.ndarray)
     x = np.asarray(sol.x, float) * d
     if not np.all(np.isfinite(x)):
         raise RobocalError(f"the consistent fit failed (Clarabel status {status})")
-    for b in range(n_bodies):
+    for b in constrained:
         x[10 * b:10 * b + 10] = nearest_realisable(x[10 * b:10 * b + 10])
     x[n_in:] = np.maximum(x[n_in:], lower)
     return PsdQpResult(x, int(sol.iterations), status, status == "Solved")
 
 
-def unconstrained_if_feasible(H: np.ndarray, q: np.ndarray, n_bodies: int, lower: np.ndarray) -> np.ndarray | None:
-    """The unconstrained minimiser H^-1 q when it satisfies every constraint, else None."""
+def unconstrained_if_feasible(H: np.ndarray, q: np.ndarray, bodies: list[int], lower: np.ndarray) -> np.ndarray | None:
+    """The unconstrained minimiser H^-1 q when it satisfies every constraint (the PSD test on `bodies`),
+    else None."""
     try:
         x = np.linalg.solve(H, q)
     except np.linalg.LinAlgError:
         return None
-    n_in = 10 * n_bodies
+    n_in = len(x) - len(lower)
     if not np.all(np.isfinite(x)) or np.any(x[n_in:] < lower):
         return None
     # strict (rtol 0): this point is returned without the projection the solver's answer gets
-    if not all(is_physically_consistent(x[10 * b:10 * b + 10], rtol=0.0) for b in range(n_bodies)):
+    if not all(is_physically_consistent(x[10 * b:10 * b + 10], rtol=0.0) for b in bodies):
         return None
     return x
 
