@@ -60,6 +60,7 @@ class IdentifyResult:
     wrench_rms: dict
     curves: dict = field(repr=False, default_factory=dict)
     constraint_costs: list[ConstraintCost] = field(default_factory=list)
+    regressors: dict[str, Regressor] = field(repr=False, default_factory=dict)
 
     def consistent_model(self) -> pin.Model:
         """The reduced model carrying the consistent inertial parameters and rotor inertias."""
@@ -160,7 +161,8 @@ def identify_from_config(path_or_dict, base_dir=None) -> IdentifyResult:
     wrench = _wrench_rms(cfg, model, proc.decimated(proc.q)[check], rec_idx, {k: curves[k] for k in MODELS},
                          tau_check)
     return IdentifyResult(cfg, model, recorded, proc, train, check, ols, consistent, prior, consistency, validation,
-                          training_rms, t_range, within, wrench, curves, costs)
+                          training_rms, t_range, within, wrench, curves, costs,
+                          {"train": reg_train, "check": reg_check})
 
 
 def _check_windows(cfg: IdentifyConfig, log: JointLog) -> None:
