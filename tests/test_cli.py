@@ -147,15 +147,16 @@ def test_demo_twice_in_a_row_replaces_its_own_folder_but_not_a_foreign_one(tmp_p
     assert (tmp_path / "robocal-demo-output" / "notes.txt").read_text() == "mine"
 
 
-def test_too_many_samples_for_a_scene_is_said_and_the_rest_is_written(tmp_path, capsys, monkeypatch):
+def test_a_fit_beyond_the_scene_limit_draws_a_subset_and_says_so(tmp_path, capsys, monkeypatch):
     import robocal.viz.scene as scene
     monkeypatch.setattr(scene, "MAX_SAMPLES", 5)          # the demo has more: as if it were a very large fit
     shutil.copy(DEMO / "ur5_calibrate.yaml", tmp_path / "c.yaml")
     shutil.copy(DEMO / "ur5_tracker_poses.csv", tmp_path / "ur5_tracker_poses.csv")
     out = tmp_path / "out"
     assert main(["calibrate", str(tmp_path / "c.yaml"), "-o", str(out)]) == 0
-    assert "no scene.json" in capsys.readouterr().err
-    assert not (out / "scene.json").exists()
-    assert (out / "result.json").is_file() and (out / "report.html").is_file()
-    assert main(["view", str(out), "--html", str(tmp_path / "v.html")]) == 2
-    assert "more than 5 samples" in capsys.readouterr().err
+    assert "draws 5 of the" in capsys.readouterr().err
+    drawn = json.loads((out / "scene.json").read_text())["drawn"]
+    assert len(drawn["samples"]) == 5 and drawn["of"] > 5
+    assert "5 of " in (out / "report.html").read_text() and (out / "result.json").is_file()
+    assert main(["view", str(out), "--html", str(tmp_path / "v.html")]) == 0
+    assert f"5 of {drawn['of']} samples drawn" in (tmp_path / "v.html").read_text()

@@ -191,3 +191,35 @@ def test_version_1_scene_files_still_open(tmp_path):
     assert len(segs) == len(scene["robot"]["links"]) - 1           # link origins joined to their parents
     view = SceneView(scene, meshes=False)
     assert view.sample_label(3).startswith("sample 4 /") and len(view.static_html()) > 500_000
+
+
+def test_a_large_fit_draws_evenly_spaced_samples_numbered_in_the_scene(monkeypatch):
+    """Beyond MAX_SAMPLES the scene draws that many evenly spaced samples: each drawn pose and each kept
+    term's residual is the full scene's for the same problem sample, terms point at drawn samples only,
+    and the scene says which samples of how many these are."""
+    import robocal.viz.scene as scene_module
+    problem, result, before = all_types_case()
+    full = scene_data(problem, result, before)
+    n = len(problem.values)
+    monkeypatch.setattr(scene_module, "MAX_SAMPLES", 9)
+    part = scene_data(problem, result, before)
+    drawn = part["drawn"]["samples"]
+    assert part["drawn"]["of"] == n and len(drawn) == len(part["values"]) == 9
+    assert drawn[0] == 0 and drawn[-1] == n - 1 and drawn == sorted(set(drawn))
+    assert "drawn" not in full
+    for s in ("before", "after"):
+        np.testing.assert_allclose(part["poses"][s], np.array(full["poses"][s])[drawn], atol=1e-12)
+    np.testing.assert_array_equal(part["values"], np.array(full["values"])[drawn])
+    kept_terms = 0
+    for bf, bp in zip(full["blocks"], part["blocks"]):
+        for terms, row in zip(bp["terms"], bp["residual_after"]):
+            assert all(0 <= t < 9 for t in terms)
+            original = [drawn[t] for t in terms]
+            k = bf["terms"].index(original)
+            np.testing.assert_allclose(row, bf["residual_after"][k], atol=1e-12)
+            kept_terms += 1
+        # every term of the full scene whose samples were all drawn is kept
+        assert len(bp["terms"]) == sum(all(t in drawn for t in terms) for terms in bf["terms"])
+    assert kept_terms > 0
+    assert scene_module.scene_note(problem).startswith(f"scene.json (the 3D check and the report's point plots) "
+                                                       f"draws 9 of the {n} samples")

@@ -11,7 +11,7 @@ from robocal.estimation.iso9283_run import iso9283_run, iso9283_section
 from robocal.io.config import load_config
 from robocal.io.data_check import nominal_states, units_findings
 from robocal.io.output import check_replaceable, write_results
-from robocal.viz.scene import scene_bytes, scene_refusal
+from robocal.viz.scene import scene_bytes, scene_note
 from robocal.io.wording import plural
 
 
@@ -45,10 +45,10 @@ def cmd_calibrate(args) -> int:
     result = calibrate(p, setup.options, progress=None if args.quiet else _progress,
                        source=", ".join(str(t.path) for t in setup.tables.values()))
     # the scene's "before" is the model the "before" figures describe: the nominal robot, registered
-    refusal = scene_refusal(setup)
-    extra = {} if refusal else {"scene.json": scene_bytes(setup, result, result.registered_nominal(nominal))}
-    if refusal and not args.quiet:
-        print(f"robocal: {refusal}", file=sys.stderr)
+    note = scene_note(setup)
+    if note and not args.quiet:
+        print(f"robocal: {note}", file=sys.stderr)
+    extra = {"scene.json": scene_bytes(setup, result, result.registered_nominal(nominal))}
     iso = None
     if "iso9283" in setup.raw:
         iso = iso9283_run(setup, nominal, p.params, result).to_dict()

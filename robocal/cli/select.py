@@ -11,7 +11,7 @@ from robocal.estimation.calibrate import calibrate
 from robocal.estimation.evaluation import portable_config, setup_for_data
 from robocal.estimation.model_selection import select_model
 from robocal.io.output import check_replaceable, write_results
-from robocal.viz.scene import scene_bytes, scene_refusal
+from robocal.viz.scene import scene_bytes, scene_note
 
 def cmd_select(args) -> int:
     selection = select_model(args.config, args.folds, args.loo, args.group)
@@ -26,11 +26,10 @@ def cmd_select(args) -> int:
     before = result.registered_nominal(nominal)   # the scene shows the model before and after the fit
     extra = {"selection.json": (json.dumps(selection.to_dict(), indent=2, allow_nan=True) + "\n").encode(),
              "config.yaml": portable_config(args.config, rung.parameters)}
-    refusal = scene_refusal(setup)
-    if refusal:
-        print(f"robocal: {refusal}", file=sys.stderr)
-    else:
-        extra["scene.json"] = scene_bytes(setup, result, before)
+    note = scene_note(setup)
+    if note:
+        print(f"robocal: {note}", file=sys.stderr)
+    extra["scene.json"] = scene_bytes(setup, result, before)
     if (setup.raw.get("output") or {}).get("report", True):
         try:
             from robocal.viz.report import report_bytes   # matplotlib and meshcat: the optional [viz] extra

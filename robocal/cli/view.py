@@ -11,7 +11,6 @@ from pathlib import Path
 
 from robocal.errors import InputError
 from robocal.io.output import add_to_manifest
-from robocal.viz import scene as scene_file
 from robocal.viz.scene import read_scene
 
 
@@ -36,8 +35,8 @@ def _scene(folder: str):
     if not path.exists():
         raise InputError("no such folder (give the output folder of `robocal calibrate`)", source=str(path))
     if path.is_dir() and not (path / "scene.json").is_file():
-        raise InputError("no scene.json in this folder: give the output folder of `robocal calibrate` (a fit of "
-                         f"more than {scene_file.MAX_SAMPLES} samples writes none)", source=str(path))
+        raise InputError("no scene.json in this folder: give the output folder of `robocal calibrate`",
+                         source=str(path))
     return read_scene(path)
 
 

@@ -31,6 +31,7 @@ from robocal.io.tables import read_csv
 from robocal.errors import InputError
 from robocal.model.kinematics import ModelState
 from robocal.model.parameters import ParameterSet
+from robocal.residuals.base import Residual
 from robocal.estimation.problem import Problem
 
 MM = 1e3
@@ -124,8 +125,12 @@ def term_errors(problem: Problem, params: ParameterSet | None = None, residuals=
 
 def subset_residual(res, keep_samples):
     """A copy of a residual with only the terms whose samples are all in `keep_samples`."""
-    keep_samples = set(int(s) for s in keep_samples)
-    keep = np.array([all(s in keep_samples for s in res.term_samples(k)) for k in range(res.n_terms)], dtype=bool)
+    if type(res).term_samples is Residual.term_samples:       # one sample per term: vectorised (a million terms)
+        keep = np.isin(np.asarray(res.samples), np.asarray(keep_samples, dtype=int))
+    else:
+        keep_samples = set(int(s) for s in keep_samples)
+        keep = np.array([all(s in keep_samples for s in res.term_samples(k)) for k in range(res.n_terms)],
+                        dtype=bool)
     new = copy.copy(res)
     for attr, value in vars(res).items():
         if isinstance(value, np.ndarray) and attr not in ("sigma", "weights") and value.ndim >= 1 \

@@ -206,12 +206,21 @@ class SceneView:
 
     def sample_label(self, sample: int) -> str:
         parts = [p for b in self.scene["blocks"] for p in label_parts(b, sample)]
-        return f"sample {sample + 1} / {self.n_samples}" + ("; " + "; ".join(parts) if parts else "")
+        drawn = self.scene.get("drawn")
+        where = (f"sample {drawn['samples'][sample] + 1} of {drawn['of']} (drawn {sample + 1} / {self.n_samples})"
+                 if drawn else f"sample {sample + 1} / {self.n_samples}")
+        return where + ("; " + "; ".join(parts) if parts else "")
+
+    def samples_phrase(self) -> str:
+        drawn = self.scene.get("drawn")
+        if drawn:
+            return f"{self.n_samples} of {plural(drawn['of'], 'sample')} drawn (evenly spaced)"
+        return plural(self.n_samples, "sample")
 
     # ---- static page ---------------------------------------------------------------------------
     def legend_html(self) -> str:
         rows = [f'<b>robocal visual check</b>: {html.escape(self.scene["robot"]["name"])}, '
-                f'{plural(self.n_samples, "sample")}. <span id="robocal-sample"></span>',
+                f'{self.samples_phrase()}. <span id="robocal-sample"></span>',
                 '<button onclick="robocalShow(robocalSample-1)">&#9664; previous</button> '
                 '<button onclick="robocalShow(robocalSample+1)">next &#9654;</button>',
                 '<span class="dot" style="background:#202020"></span> measured '

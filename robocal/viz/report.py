@@ -110,7 +110,10 @@ def report_html(result: dict, scene: dict | None = None, meshes: bool = True, ti
                ["condition number", format_value(result.get("condition_number"), ".3g")],
                ["residual / stated sigma", format_value(result.get("sigma_ratio"), ".3f")]]
     if scene:
-        summary.insert(0, ["robot", f"{scene['robot']['name']} ({plural(len(scene['values']), 'sample')})"])
+        drawn = scene.get("drawn")
+        samples = (f"{len(scene['values'])} of {plural(drawn['of'], 'sample')} drawn in the plots of points "
+                   "and the 3D check, evenly spaced" if drawn else plural(len(scene["values"]), "sample"))
+        summary.insert(0, ["robot", f"{scene['robot']['name']} ({samples})"])
     blocks = []
     for b0, b1 in zip(result.get("residuals_before", []), result.get("residuals_after", [])):
         fmt = lambda d: ", ".join(f"{v:.4g} {k}" for k, v in (d or {}).items())

@@ -28,6 +28,7 @@ from robocal.errors import InputError
 from robocal.model.batch_kinematics import BatchKinematics, supports_batch
 from robocal.model.kinematics import ModelState
 from robocal.model.lie_arrays import quaternions
+from robocal.estimation.evaluation import subset_residual
 from robocal.estimation.problem import LazyStates
 from robocal.residuals.base import tilted_direction
 from robocal.viz.skeleton_layout import skeleton, skeleton_from_links
@@ -39,18 +40,27 @@ FORMAT = "robocal-scene"
 VERSION = 2
 SUPPORTED = (1, 2)
 STATES = ("before", "after")
-# Beyond this many samples no scene is written: at 10000 UR5 poses scene.json is already ~37 MB and takes
-# ~2 s, and a million would be gigabytes that no browser draws. Said on the command line, not silent.
+# A scene draws at most this many samples: at 10000 UR5 poses scene.json is already ~37 MB and takes ~2 s,
+# and a million would be gigabytes that no browser draws. Beyond it, evenly spaced samples are drawn, the
+# scene says so ("drawn") and the command line says it too.
 MAX_SAMPLES = 10000
 
 
-def scene_refusal(problem) -> str | None:
-    """Why no scene is written for `problem` (a Problem or a config Setup), or None if one is."""
+def drawn_samples(n: int) -> np.ndarray:
+    """The samples a scene draws: all of n up to MAX_SAMPLES, else MAX_SAMPLES evenly spaced (the first and
+    the last included; deterministic)."""
+    if n <= MAX_SAMPLES:
+        return np.arange(n)
+    return np.unique(np.round(np.linspace(0, n - 1, MAX_SAMPLES)).astype(int))
+
+
+def scene_note(problem) -> str | None:
+    """What the scene of `problem` (a Problem or a config Setup) leaves out, or None when it draws everything."""
     n = len(getattr(problem, "problem", problem).values)
     if n <= MAX_SAMPLES:
         return None
-    return (f"no scene.json (no 3D check, no scene in the report): {n} samples exceed the visual check's "
-            f"{MAX_SAMPLES}; fit a subset of them to look at it")
+    return (f"scene.json (the 3D check and the report's point plots) draws {MAX_SAMPLES} of the {n} samples, "
+            "evenly spaced; every figure in result.json uses all of them")
 
 
 def _pose7(M: pin.SE3) -> list[float]:
@@ -156,9 +166,11 @@ def identification(result) -> dict:
             "requested": len(result.requested), "rtol": sel.rtol, "condition": result.condition}
 
 
-def _block(res, states, param_sets) -> dict:
+def _block(res, states, param_sets, position: np.ndarray) -> dict:
+    """position: a problem sample's index among the drawn samples (the scene's numbering)."""
     block = {"name": res.name, "type": res.type_name, "frame": getattr(res, "frame", None),
-             "samples": res.samples.tolist(), "terms": [list(res.term_samples(k)) for k in range(res.n_terms)],
+             "samples": position[np.asarray(res.samples, dtype=int)].tolist(),
+             "terms": [position[list(res.term_samples(k))].tolist() for k in range(res.n_terms)],
              "row_units": list(res.row_units), "sigma": res.sigma.tolist()}
     for s in STATES:
         aux = _aux(param_sets[s], res)
@@ -213,32 +225,42 @@ def scene_data(problem, result, params_before, ident: dict | None = None) -> dic
     for ms in models.values():            # closed chains: assemble from the fit's last solutions
         ms.warm_starts = dict(problem.warm_starts)
     states = {s: LazyStates(ms, problem.values, problem.directions) for s, ms in models.items()}
-    poses = {s: frame_poses(problem, models[s], states[s], frame_names) for s in STATES}
-    return {
+    n = len(problem.values)
+    drawn = drawn_samples(n)
+    position = np.full(n, -1)
+    position[drawn] = np.arange(len(drawn))
+    residuals = problem.residuals if len(drawn) == n else [subset_residual(r, drawn) for r in problem.residuals]
+    poses = {s: frame_poses(problem, models[s], states[s], frame_names, drawn) for s in STATES}
+    out = {
         "format": FORMAT, "version": VERSION, "units": "SI (m, rad)",
         "robot": {"name": robot.name, "urdf_path": str(robot.urdf_path) if robot.urdf_path else None,
                   "package_dirs": list(robot.package_dirs), "links": links,
                   "closed_chain": robot.loops is not None, "closures": closures,
                   "skeleton": {s: skeleton(robot, models[s].model, links) for s in STATES}},
         "joint_names": list(problem.joint_names),
-        "values": problem.values.tolist(),
+        "values": problem.values[drawn].tolist(),
         "frames": frame_names,
         "poses": poses,
-        "blocks": [_block(res, states, param_sets) for res in problem.residuals],
+        "blocks": [_block(res, states, param_sets, position) for res in residuals],
         "identification": ident if ident is not None else identification(result),
     }
+    if len(drawn) < n:      # which samples of the problem these are (its numbering, from 0)
+        out["drawn"] = {"of": n, "samples": drawn.tolist()}
+    return out
 
 
-def frame_poses(problem, ms: ModelState, states: LazyStates, frame_names: list[str]) -> list:
-    """[sample][frame] -> [x, y, z, qx, qy, qz, qw] world poses: all samples at once for a serial robot
-    (robocal.model.batch_kinematics), else sample by sample (closed chains assemble their loops there)."""
-    n = len(problem.values)
+def frame_poses(problem, ms: ModelState, states: LazyStates, frame_names: list[str],
+                samples: np.ndarray | None = None) -> list:
+    """[sample][frame] -> [x, y, z, qx, qy, qz, qw] world poses at `samples` (default all, increasing): all at
+    once for a serial robot (robocal.model.batch_kinematics), else sample by sample (closed chains assemble
+    their loops there)."""
+    samples = np.arange(len(problem.values)) if samples is None else np.asarray(samples, dtype=int)
     if not supports_batch(ms):
-        return [[_pose7(states[i].pose(f)) for f in frame_names] for i in range(n)]
+        return [[_pose7(states[int(i)].pose(f)) for f in frame_names] for i in samples]
     batch = BatchKinematics(ms, problem.sample_constants(ms), problem.values, problem.directions)
-    out = np.empty((n, len(frame_names), 7))
+    out = np.empty((len(samples), len(frame_names), 7))
     for k, f in enumerate(frame_names):
-        fa = batch.frame(f, np.arange(n), jacobian=False)
+        fa = batch.frame(f, samples, jacobian=False)
         out[:, k, :3], out[:, k, 3:] = fa.p, quaternions(fa.R)
     return out.tolist()
 
