@@ -29,7 +29,7 @@ CONFIG = ROOT / "examples/tiago_dynamics/identify.yaml"
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[1])
-    parser.add_argument("--config", default=str(CONFIG))
+    parser.add_argument("--config", default=str(CONFIG), help="an identification config (default: the shipped one)")
     args = parser.parse_args()
     res = identify_from_config(args.config)
     reg_train, reg_check = res.regressors["train"], res.regressors["check"]

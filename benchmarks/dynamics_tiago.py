@@ -39,11 +39,12 @@ FIGAROH_CONFIG = ROOT / "benchmarks/figaroh/tiago_identification.yaml"
 
 
 # the stages of identify_from_config beyond the OLS fit, timed apart to compare like with like
-EXTRA_STAGES = ("choose_prior_weight", "fit_consistent")
+EXTRA_STAGES = ("within_noise_choice", "_holdout_choice", "fit_consistent", "constraint_costs")
 
 
 def time_extra_stages(spent: dict) -> None:
-    """Wrap identify_run's prior-weight choice and consistent fit so that their wall time adds up in `spent`."""
+    """Wrap identify_run's prior-weight choice, consistent fit and constraint-cost refits so that their wall time
+    adds up in `spent`."""
     for name in EXTRA_STAGES:
         def timed(*args, _f=getattr(identify_run, name), _name=name, **kwargs):
             t0 = time.perf_counter()
@@ -111,7 +112,8 @@ def main(argv=None):
           f"({res.check.sum()} samples); cut-off {res.processed.cutoff_hz:.3g} Hz, "
           f"decimation {res.processed.decimation}")
     print(f"OLS: {res.ols.selection.rank} base parameters, condition {res.ols.condition:.4g}; consistent: prior weight "
-          f"{res.consistent.prior_weight:g} (grid scores " + ", ".join(f"{s:.3f}" for s in res.prior.scores)
+          f"{res.consistent.prior_weight:g} (rule {res.prior.rule}; grid scores "
+          + ", ".join(f"{s:.3f}" for s in res.prior.scores)
           + f"), Clarabel {res.consistent.iterations} iterations, status {res.consistent.status}")
     print("\nheld-out torque RMSE (% of range)")
     print("| model | " + " | ".join(f"{j} ({u})" for j, u in zip(res.recorded, units)) + " |")
@@ -131,10 +133,11 @@ def main(argv=None):
           f"in noise units (variance inflation of the filtered noise {wn['noise_inflation']:.3g}; chi-square 95 %: "
           f"{wn['chi2_95']:.1f}); "
           "RMS ratio " + ", ".join(f"{r:.3f}" for r in wn["rms_ratio"]))
-    print(f"\nidentification wall time (load, filter, OLS, prior-weight grid, consistent fit, validation): "
+    print(f"\nidentification wall time (load, filter, OLS, prior-weight grid, consistent fit, constraint costs, "
+          "validation): "
           f"best {min(times):.2f} s, median {np.median(times):.2f} s over {len(times)} run(s); "
-          f"CPU time best {min(cpu):.2f} s (the machine may be shared); of which the prior-weight grid and the "
-          f"consistent fit: median {np.median(extra):.2f} s, the rest (load, filter, regressor, OLS, validation, "
+          f"CPU time best {min(cpu):.2f} s (the machine may be shared); of which the prior-weight grid, the "
+          f"consistent fit and the constraint-cost refits: median {np.median(extra):.2f} s, the rest (load, filter, regressor, OLS, validation, "
           f"external force) median {np.median(np.subtract(times, extra)):.2f} s")
     if python is None:
         return
@@ -146,7 +149,7 @@ def main(argv=None):
     print("\n".join(heldout_tables(res, f, units)))
     fig_times = [a["identification_s"] for a in figaroh]
     print(f"\nidentification wall time, median of {len(times)} run(s): robocal, whole identify_from_config "
-          f"{np.median(times):.2f} s, without the prior-weight grid and consistent fit "
+          f"{np.median(times):.2f} s, without the prior-weight grid, consistent fit and constraint costs "
           f"{np.median(np.subtract(times, extra)):.2f} s; FIGAROH (its own process, robot model to solve() "
           f"returned: load, filter, regressor, decimation, double QR, OLS, its report) {np.median(fig_times):.2f} s "
           f"(range {min(fig_times):.2f}-{max(fig_times):.2f} s). The machine is shared with other jobs: compare "

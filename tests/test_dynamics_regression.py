@@ -3,7 +3,7 @@ consistent fit, which uses those weights, can never beat it on the training wind
 when the chosen prior weight sits at the end of the grid."""
 import numpy as np
 
-from robocal.dynamics.consistent_fit import PriorWeightChoice
+from robocal.dynamics.prior_weight import PriorWeightChoice
 from robocal.dynamics.identify_report import grid_edge_note, within_noise_verdict
 from robocal.dynamics.regression import Regressor, fit_base, row_weights
 
@@ -36,9 +36,13 @@ def test_the_fit_minimises_the_objective_weighted_by_the_sigma_it_returns():
 
 def test_grid_edge_note_names_the_edge():
     grid = [0.1, 1.0, 10.0]
-    assert "largest" in grid_edge_note(PriorWeightChoice(grid, [3, 2, 1], 10.0, 0.75))
-    assert "smallest" in grid_edge_note(PriorWeightChoice(grid, [1, 2, 3], 0.1, 0.75))
-    assert grid_edge_note(PriorWeightChoice(grid, [2, 1, 2], 1.0, 0.75)) == ""
+    assert "largest" in grid_edge_note(PriorWeightChoice("holdout", grid, [3, 2, 1], 10.0, split_fraction=0.75))
+    assert "smallest" in grid_edge_note(PriorWeightChoice("holdout", grid, [1, 2, 3], 0.1, split_fraction=0.75))
+    assert grid_edge_note(PriorWeightChoice("holdout", grid, [2, 1, 2], 1.0, split_fraction=0.75)) == ""
+    # within-noise rule: the weakest weight because none met the bound is said as such
+    missed = grid_edge_note(PriorWeightChoice("within_noise", grid, [90, 95, 120], 0.1, bound=80.0, attained=False))
+    assert "no weight of the grid meets that bound" in missed and "90 > 80" in missed
+    assert grid_edge_note(PriorWeightChoice("within_noise", grid, [10, 50, 90], 1.0, bound=80.0)) == ""
 
 
 def test_within_noise_verdict_follows_the_quantile():

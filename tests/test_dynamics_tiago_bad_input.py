@@ -78,6 +78,7 @@ def test_a_training_window_too_short_to_choose_the_prior_weight(case):
     cfg, tmp_path = case
     cfg["signal"]["cutoff_hz"] = 2.0          # a 1 s guard between the fitted and the scored part
     cfg["windows"]["train"] = [2.0, 4.5]
+    cfg["model"]["prior_rule"] = "holdout"    # the rule that splits the training window
     err = run_and_expect(cfg, tmp_path, "prior weight|widen")
     assert err.field == "windows.train"
 

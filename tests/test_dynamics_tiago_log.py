@@ -25,11 +25,13 @@ def test_consistent_model_beats_cad_and_stays_near_ols(result):
     rmse = {m: np.array(v["rmse"]) for m, v in result.validation.items()}
     assert np.all(rmse["consistent"] < rmse["cad"])
     ratio = rmse["consistent"] / rmse["ols"]
-    # measured 1.147, 0.658, 1.145, 0.778, 1.022: the issue's 5 % holds on arm_1, arm_3, arm_4, not on
-    # the torso (its effort responds to vertical acceleration like a lighter body than the URDF's, which
-    # a consistent model cannot follow) nor on arm_2 (docs/dynamics_tiago.md); this bounds what is claimed
-    assert np.all(ratio[[1, 3, 4]] <= 1.05), ratio
-    assert np.all(ratio <= 1.2), ratio
+    # the issue's criterion, on the shipped split (the log's last 20 s held out) and prior rule; measured
+    # 1.034, 0.882, 0.959, 0.507, 0.897 against the filtered torque, 1.020, 0.960, 1.037, 0.844, 0.992
+    # against the logged one (docs/dynamics_tiago.md)
+    assert np.all(ratio <= 1.05), ratio
+    logged = {m: np.array(v["rmse_against_logged"]) for m, v in result.validation.items()}
+    assert np.all(logged["consistent"] < logged["cad"])
+    assert np.all(logged["consistent"] / logged["ols"] <= 1.05)
 
 
 def test_every_body_is_physically_consistent(result):
@@ -78,9 +80,41 @@ def test_no_validation_data_reaches_the_fit(result):
     assert t[result.train].max() < cfg.validate[0] - reach
     assert t[result.train].min() >= cfg.train[0]
     assert np.all((t[result.check] >= cfg.validate[0]) & (t[result.check] < cfg.validate[1]))
-    # the same guard inside the training window, between the part that fits a prior weight and the part
-    # that scores it
-    assert result.prior.gap_s > reach
+
+
+def test_the_holdout_rule_keeps_the_filter_reach_between_its_parts():
+    """model.prior_rule holdout: the same guard inside the training window, between the part that fits a
+    prior weight and the part that scores it; the chosen weight scores best."""
+    cfg = base_config()
+    cfg["model"]["prior_rule"] = "holdout"
+    res = identify_from_config(cfg, CONFIG.parent)
+    reach = res.config.signal.edge_periods / res.processed.cutoff_hz
+    assert res.prior.rule == "holdout" and res.prior.gap_s > reach
+    assert res.prior.scores[res.prior.grid.index(res.prior.chosen)] == min(res.prior.scores)
+    assert "scored on the rest" in summary_text(res)
+
+
+def test_masses_far_from_cad_are_pointed_out(result):
+    """Realisable is not plausible: on this log the torso body's mass falls far below the URDF's, and the
+    summary says so next to the masses."""
+    text = summary_text(result)
+    assert "Body masses, CAD -> consistent (kg): torso_lift_joint 8.44 ->" in text
+    note = next(line for line in text.splitlines() if line.startswith("NOTE: ") and "CAD mass" in line)
+    assert "torso_lift_joint" in note
+
+
+def test_the_prior_weight_is_the_strongest_within_the_noise(result):
+    """The default rule: the chosen weight's fit lies within the bound when any does, every stronger one
+    beyond it; when none does, the weakest is taken and the summary says so."""
+    prior = result.prior
+    assert prior.rule == "within_noise" and prior.bound == pytest.approx(result.within_noise["chi2_95"])
+    k = prior.grid.index(prior.chosen)
+    assert all(d > prior.bound for d in prior.scores[k + 1:])
+    assert result.within_noise["distance_in_noise_units"] == pytest.approx(prior.scores[k], rel=1e-6)
+    if prior.attained:
+        assert prior.scores[k] <= prior.bound
+    else:
+        assert k == 0 and "no weight of the grid meets that bound" in summary_text(result)
 
 
 def test_held_out_figures_against_the_logged_torque_itself(result):

@@ -8,8 +8,7 @@ condition for pi to be a mass distribution) and Coulomb friction, viscous fricti
 inertia >= 0. It is convex; psd_qp.py solves it (Clarabel) and returns a point of the constraint set.
 s are the CAD body's natural scales (mass m, first moments m l, inertias m l^2, with l the CAD
 body's RMS mass distance from its joint, sqrt(tr Sigma / m)); lambda = 1 weighs the prior like the
-whole data set. `choose_prior_weight` picks lambda from the data: fit on the earlier part of the
-training window, score the weighted torque error on its later part, keep the best of a log grid.
+whole data set; prior_weight.py chooses lambda from the data.
 (A log-Cholesky parametrisation (Rucker & Wensing 2022) solved by scipy least_squares was tried
 first: when the optimum puts a body on the cone's boundary it needs infinite log values, and it had
 not converged after 5000 evaluations on the TIAGo log; see docs/dynamics_tiago.md.)
@@ -91,32 +90,3 @@ def fit_consistent(reg: Regressor, tau: np.ndarray, sigma: np.ndarray, cad: np.n
     prior_cost = float(np.sum(prior[:n_in] * (sol.x[:n_in] - cad) ** 2))
     return ConsistentFit(sol.x[:n_in], sol.x[n_in:], float(prior_weight), sol.iterations, data_cost,
                          sol.converged, sol.status, prior_cost)
-
-
-@dataclass
-class PriorWeightChoice:
-    """grid of lambda values, score (weighted mean-square torque error on the held-out part of the
-    training window) per value, the chosen lambda and the fitted share of the training window; gap_s:
-    the time between the last fitted and the first scored sample (identify_run leaves the filter's reach)."""
-
-    grid: list[float]
-    scores: list[float]
-    chosen: float
-    split_fraction: float
-    gap_s: float = 0.0
-
-
-def choose_prior_weight(reg_fit: Regressor, tau_fit: np.ndarray, reg_check: Regressor, tau_check: np.ndarray,
-                        sigma: np.ndarray, cad: np.ndarray, grid=DEFAULT_GRID,
-                        split_fraction: float = 0.75) -> PriorWeightChoice:
-    """Fit on (reg_fit, tau_fit), score on (reg_check, tau_check) for each lambda of `grid`; ties go
-    to the larger lambda (closer to CAD)."""
-    scores = {}
-    for lam in grid:
-        fit = fit_consistent(reg_fit, tau_fit, sigma, cad, lam)
-        err = (fit.predict(reg_check) - tau_check) / sigma
-        scores[lam] = float(np.mean(err**2))
-    best = min(scores.values())
-    chosen = max(lam for lam, s in scores.items() if s <= best * (1 + 1e-9))
-    ordered = sorted(scores)
-    return PriorWeightChoice(ordered, [scores[k] for k in ordered], chosen, split_fraction)

@@ -16,8 +16,10 @@ Keys (paths relative to the YAML; units SI, torques in N m or N for prismatic jo
   model:   terms: subset of [coulomb, viscous, offset, armature]; coulomb_width: the width of the
            tanh standing for sign(v), as a fraction of each joint's RMS speed in the training window
            (one number for revolute and prismatic joints alike);
-           prior_grid: lambda values to try; prior_split: share of the training window fitted
-           when choosing lambda (the rest scores it)
+           prior_rule: within_noise (default: the strongest CAD prior that keeps the consistent fit
+           within the unconstrained fit's noise) or holdout (the weight that best predicts the
+           training window's last part); prior_grid: lambda values to try; prior_split: share of
+           the training window fitted by the holdout rule (the rest scores it); prior_weight.py
   wrench:  frame: where the external force is estimated (default: the last joint's child frame)
   output:  default output folder
 See docs/dynamics_tiago.md for the worked TIAGo example.
@@ -32,6 +34,7 @@ import pinocchio as pin
 
 from robocal.io.config import Cfg, read_yaml
 from robocal.dynamics.consistent_fit import DEFAULT_GRID
+from robocal.dynamics.prior_weight import RULES
 from robocal.dynamics.filtering import SignalOptions
 from robocal.dynamics.regression import EXTRA_TERMS
 from robocal.errors import InputError
@@ -63,6 +66,7 @@ class IdentifyConfig:
     wrench_frame: str | None = None
     output: Path | None = None
     raw: dict = field(default_factory=dict, repr=False)
+    prior_rule: str = "within_noise"
 
 
 def load_identify_config(path_or_dict, base_dir: str | Path | None = None) -> IdentifyConfig:
@@ -99,7 +103,7 @@ def load_identify_config(path_or_dict, base_dir: str | Path | None = None) -> Id
             opts[key] = None
     windows, model, wrench = root.child("windows"), root.child("model", {}), root.child("wrench", {})
     windows.check_keys(("train", "validate", "min_motion"))
-    model.check_keys(("terms", "coulomb_width", "prior_grid", "prior_split"))
+    model.check_keys(("terms", "coulomb_width", "prior_rule", "prior_grid", "prior_split"))
     wrench.check_keys(("frame",))
     train, validate = _window(windows, "train"), _window(windows, "validate")
     if train[0] < validate[1] and validate[0] < train[1]:
@@ -118,13 +122,18 @@ def load_identify_config(path_or_dict, base_dir: str | Path | None = None) -> Id
             float(model.get("coulomb_width", 0.05, types=(int, float))),
             tuple(float(x) for x in model.get("prior_grid", list(DEFAULT_GRID), types=list)),
             float(model.get("prior_split", 0.75, types=(int, float))),
-            wrench.get("frame", None, types=str), None if out is None else base / str(out), raw)
+            wrench.get("frame", None, types=str), None if out is None else base / str(out), raw,
+            str(model.get("prior_rule", "within_noise", types=str)))
     except TypeError as exc:
         raise InputError(f"bad value: {exc}", source=source, field="signal") from None
     except InputError as exc:              # SignalOptions knows the key, not the file
         raise InputError(exc.reason, source=source, field=exc.field) from None
     if not cfg.coulomb_width > 0:
         raise model.error("coulomb_width must be > 0", "coulomb_width")
+    if cfg.prior_rule not in RULES:
+        raise model.error(f"prior_rule must be one of {', '.join(RULES)}, not '{cfg.prior_rule}'", "prior_rule")
+    if not cfg.prior_grid or not all(g > 0 for g in cfg.prior_grid):
+        raise model.error("prior_grid must hold positive weights", "prior_grid")
     if not 0.3 <= cfg.prior_split < 1:
         raise model.error("prior_split must lie in [0.3, 1)", "prior_split")
     return cfg

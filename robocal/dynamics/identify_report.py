@@ -58,8 +58,9 @@ def result_dict(res: IdentifyResult, urdf: tuple | None = None) -> dict:
         "ols": {"names": ols.names, "values": ols.values.tolist(), "std": ols.std.tolist(),
                 "condition_number": ols.condition, "rank": ols.selection.rank,
                 "residual_rms_per_joint": ols.sigma.tolist(), "dropped": ols.selection.describe()},
-        "consistent": {"prior_weight": fit.prior_weight, "prior_grid": res.prior.grid,
-                       "prior_scores": res.prior.scores, "prior_split": res.prior.split_fraction,
+        "consistent": {"prior_weight": fit.prior_weight, "prior_rule": res.prior.rule, "prior_grid": res.prior.grid,
+                       "prior_scores": res.prior.scores, "prior_bound": res.prior.bound,
+                       "prior_split": res.prior.split_fraction,
                        "solver_iterations": fit.iterations, "solver_status": fit.status, "converged": fit.converged,
                        "inertial": {b: p.tolist() for b, p in zip(bodies, fit.inertial.reshape(-1, 10))},
                        "extra": dict(zip(res.consistent_extra_names(), fit.extra.tolist())),
@@ -100,12 +101,11 @@ def summary_text(res: IdentifyResult, d: dict | None = None) -> str:
     lines += ["", f"Training window {w['train']} s ({w['train_samples']} samples), validation {w['validate']} s "
               f"({w['validate_samples']} samples, held out).",
               f"OLS: {d['ols']['rank']} base parameters, condition number {d['ols']['condition_number']:.4g}.",
-              f"Consistent fit: CAD prior weight {res.consistent.prior_weight:.3g} chosen on the training window "
-              f"(fit on its first {100 * res.prior.split_fraction:.0f} % less the filter's reach, "
-              f"{res.prior.gap_s:.3g} s, scored on the rest); "
+              f"Consistent fit: CAD prior weight {res.consistent.prior_weight:.3g}, {prior_rule_text(res.prior)}; "
               f"Clarabel {res.consistent.iterations} iterations, status {res.consistent.status}."
               + grid_edge_note(res.prior),
               "Every body's pseudo-inertia PSD: " + str(all(v[1] for v in res.consistency.values())),
+              *body_mass_lines(res),
               "", "Held-out torque RMSE per joint against the low-pass filtered torque (% of the joint's torque "
                   "range in the window):"]
     header = f"  {'model':24s}" + "".join(f"{j:>22s}" for j in res.recorded)
@@ -172,8 +172,23 @@ def write_identification(res: IdentifyResult, out_dir: str | Path, force: bool =
     return write_folder(out_dir, files, force=force)
 
 
+def prior_rule_text(prior) -> str:
+    """How the prior weight was chosen (prior_weight.py), in words."""
+    if prior.rule == "holdout":
+        return (f"chosen on the training window (fit on its first {100 * prior.split_fraction:.0f} % less the "
+                f"filter's reach, {prior.gap_s:.3g} s, scored on the rest)")
+    return (f"by the within-noise rule (the strongest weight of model.prior_grid whose fit stays within the "
+            f"unconstrained fit's noise on the training window: squared distance at most {prior.bound:.4g}, the "
+            "chi-square 95 % quantile)")
+
+
 def grid_edge_note(prior) -> str:
-    """Said when the chosen prior weight is the grid's smallest or largest: the best may lie beyond it."""
+    """Said when the chosen prior weight is the grid's smallest or largest: the best may lie beyond it. Under
+    the within-noise rule the smallest means no weight met the bound."""
+    if prior.rule == "within_noise" and not prior.attained:
+        return (f" NOTE: no weight of the grid meets that bound (the weakest, {prior.chosen:.3g}, lies at "
+                f"{prior.scores[0]:.4g} > {prior.bound:.4g}): the physical constraints themselves cost more than the "
+                "noise, so the weakest prior is used.")
     if len(prior.grid) < 2 or prior.chosen not in (min(prior.grid), max(prior.grid)):
         return ""
     side = "largest" if prior.chosen == max(prior.grid) else "smallest"
@@ -215,3 +230,24 @@ def term_unit(term: str, torque_unit: str) -> str:
     revolute = torque_unit == "N m"
     units = {"armature": "kg m^2" if revolute else "kg", "viscous": torque_unit + (" s/rad" if revolute else " s/m")}
     return units.get(term, torque_unit)
+
+
+#: a consistent body's mass outside [1/MASS_FACTOR, MASS_FACTOR] x its CAD mass is pointed out
+MASS_FACTOR = 2.0
+
+
+def body_mass_lines(res: IdentifyResult) -> list[str]:
+    """Each body's mass, CAD and consistent: realisable is not the same as plausible. A NOTE names the bodies
+    far from their CAD mass (the data explain the torques with another mass distribution: check the torque
+    convention, offsets and gear ratios before trusting the masses)."""
+    cad = parameter_vector(res.model)[0::10]
+    fit = res.consistent.inertial[0::10]
+    names = res.model.names[1:]
+    lines = ["Body masses, CAD -> consistent (kg): " + ", ".join(f"{n} {c:.3g} -> {m:.3g}"
+                                                                for n, c, m in zip(names, cad, fit))]
+    far = [n for n, c, m in zip(names, cad, fit) if c > 0 and not 1 / MASS_FACTOR <= m / c <= MASS_FACTOR]
+    if far:
+        lines.append(f"NOTE: {', '.join(far)}: more than {MASS_FACTOR:g}x from the CAD mass. The data explain the "
+                     "torques with another mass distribution; check the torque convention (offsets, gear ratios, "
+                     "motor constants) before using these masses.")
+    return lines

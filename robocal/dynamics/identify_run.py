@@ -14,7 +14,7 @@ import numpy as np
 import pinocchio as pin
 from scipy.stats import chi2
 
-from robocal.dynamics.consistent_fit import ConsistentFit, PriorWeightChoice, choose_prior_weight, fit_consistent
+from robocal.dynamics.consistent_fit import ConsistentFit, fit_consistent
 from robocal.dynamics.constraint_cost import ConstraintCost, constraint_costs
 from robocal.dynamics.external_force import ExternalForceEstimator
 from robocal.dynamics.filtering import ProcessedLog, parallel_filter, process_log
@@ -23,6 +23,7 @@ from robocal.dynamics.identify_config import (IdentifyConfig, load_identify_conf
                                               velocity_index)
 from robocal.dynamics.inertial import is_physically_consistent, parameter_vector, pseudo_inertia, with_parameters
 from robocal.dynamics.log_loading import DEFAULT_PATTERNS, JointLog, load_joint_log
+from robocal.dynamics.prior_weight import PriorWeightChoice, holdout_choice, within_noise_choice
 from robocal.dynamics.regression import BaseFit, Regressor, build_regressor, fit_base
 from robocal.dynamics.serial_correlation import filtered_noise_inflation
 from robocal.dynamics.wrench import WrenchMapper
@@ -122,19 +123,12 @@ def identify_from_config(path_or_dict, base_dir=None) -> IdentifyResult:
         raise InputError("the training window identifies no parameter", source=str(cfg.files["position"]),
                          field="windows.train")
     cad = parameter_vector(model)
-    n_fit = int(round(cfg.prior_split * train.sum()))
-    idx = np.flatnonzero(train)
-    first, second = np.zeros_like(train), np.zeros_like(train)
-    first[idx[:n_fit]], second[idx[n_fit:]] = True, True
-    # the same guard as before the validation window: the part that scores a weight is not seen by its fit
-    first &= t_dec < t_dec[idx[min(n_fit, len(idx) - 1)]] - guard
-    if first.sum() < 10 or second.sum() < 3:
-        raise InputError(f"choosing the prior weight leaves {first.sum()} samples to fit and {second.sum()} to score "
-                         f"(model.prior_split {cfg.prior_split:g}, {guard:.3g} s between them); widen the training "
-                         "window", source=cfg.source, field="windows.train")
-    prior = choose_prior_weight(regressor(first), tau_dec[first], regressor(second), tau_dec[second],
-                                ols.sigma, cad, cfg.prior_grid, cfg.prior_split)
-    prior.gap_s = float(t_dec[second].min() - t_dec[first].max())
+    if cfg.prior_rule == "holdout":
+        prior = _holdout_choice(cfg, reg_all, t_dec, tau_dec, train, guard, ols.sigma, cad)
+    else:
+        rss_ols, noise_unit = _noise_scale(reg_train, tau_train, ols)
+        prior = within_noise_choice(reg_train, tau_train, ols.sigma, cad, cfg.prior_grid, rss_ols, noise_unit,
+                                    float(chi2.ppf(0.95, ols.selection.rank)))
     consistent = fit_consistent(reg_train, tau_train, ols.sigma, cad, prior.chosen)
     predict = {"cad": lambda reg: (reg.X[:, :reg.n_inertial] @ cad).reshape(-1, len(rec_idx)),
                "ols": ols.predict, "consistent": consistent.predict}
@@ -163,6 +157,32 @@ def identify_from_config(path_or_dict, base_dir=None) -> IdentifyResult:
     return IdentifyResult(cfg, model, recorded, proc, train, check, ols, consistent, prior, consistency, validation,
                           training_rms, t_range, within, wrench, curves, costs,
                           {"train": reg_train, "check": reg_check})
+
+
+def _holdout_choice(cfg, reg_all, t_dec, tau_dec, train, guard, sigma, cad) -> PriorWeightChoice:
+    """prior_weight.holdout_choice on the training window: its first prior_split fitted, the rest scored,
+    the filter's reach left out between them (the part that scores a weight is not seen by its fit)."""
+    n_fit = int(round(cfg.prior_split * train.sum()))
+    idx = np.flatnonzero(train)
+    first, second = np.zeros_like(train), np.zeros_like(train)
+    first[idx[:n_fit]], second[idx[n_fit:]] = True, True
+    first &= t_dec < t_dec[idx[min(n_fit, len(idx) - 1)]] - guard
+    if first.sum() < 10 or second.sum() < 3:
+        raise InputError(f"choosing the prior weight leaves {first.sum()} samples to fit and {second.sum()} to score "
+                         f"(model.prior_split {cfg.prior_split:g}, {guard:.3g} s between them); widen the training "
+                         "window", source=cfg.source, field="windows.train")
+    prior = holdout_choice(reg_all.samples(first), tau_dec[first], reg_all.samples(second), tau_dec[second],
+                           sigma, cad, cfg.prior_grid, cfg.prior_split)
+    prior.gap_s = float(t_dec[second].min() - t_dec[first].max())
+    return prior
+
+
+def _noise_scale(reg: Regressor, tau: np.ndarray, ols: BaseFit) -> tuple[float, float]:
+    """(the unconstrained fit's weighted residual sum of squares, the weighted cost of one noise unit: its
+    residual variance times the filtered noise's inflation)."""
+    w = np.tile(1.0 / ols.sigma, len(tau))
+    rss_ols = float(np.sum(((ols.predict(reg).reshape(-1) - tau.reshape(-1)) * w) ** 2))
+    return rss_ols, rss_ols / ols.dof * ols.inflation
 
 
 def _check_windows(cfg: IdentifyConfig, log: JointLog) -> None:
@@ -216,15 +236,13 @@ def _within_noise(reg: Regressor, tau: np.ndarray, ols: BaseFit, fit: Consistent
     the weighted residual increase (= squared Mahalanobis distance of its base parameters from the
     OLS estimate, the model being linear in them) divided by the filtered noise's variance inflation
     (serial_correlation.py), against the chi-square 95 % quantile."""
+    rss_ols, noise_unit = _noise_scale(reg, tau, ols)
     w = np.tile(1.0 / ols.sigma, len(tau))
-    y = tau.reshape(-1)
     pred_ols, pred_fit = ols.predict(reg), fit.predict(reg)
-    rss = lambda pred: float(np.sum(((pred.reshape(-1) - y) * w) ** 2))     # noqa: E731
-    rss_ols = rss(pred_ols)
-    increase = (rss(pred_fit) - rss_ols) / (rss_ols / ols.dof)
+    increase = (float(np.sum(((pred_fit - tau).reshape(-1) * w) ** 2)) - rss_ols) / (rss_ols / ols.dof)
     p = ols.selection.rank
     return {"distance_in_noise_units": increase / ols.inflation, "noise_inflation": ols.inflation,
-            "noise_unit": rss_ols / ols.dof * ols.inflation,
+            "noise_unit": noise_unit,
             "residual_increase_independent_rows": increase, "chi2_95": float(chi2.ppf(0.95, p)),
             "base_parameters": p,
             "rms_ratio": (np.sqrt(np.mean((pred_fit - tau) ** 2, axis=0))
