@@ -72,16 +72,24 @@ def heldout_tables(res, figaroh: dict | None, units: list[str]) -> list[str]:
         predictions["FIGAROH 1.0.2 (OLS)"] = np.column_stack(
             [np.interp(times, figaroh["t"], figaroh["predicted"][j]) for j in res.recorded])
     predictions.update({"robocal OLS": res.curves["ols"], "robocal consistent": res.curves["consistent"]})
-    out = []
+    out, verdicts = [], []
     for title, target in (("low-pass filtered torque (robocal's validation target)", res.curves["measured"]),
                           ("logged torque, unfiltered", res.curves["logged"])):
         out += [f"\nheld-out torque RMSE on {len(times)} samples of {list(res.config.validate)} s, against the {title}",
                 "| model | " + " | ".join(f"{j} ({u})" for j, u in zip(res.recorded, units)) + " |",
                 "|---" * (len(res.recorded) + 1) + "|"]
-        for name, pred in predictions.items():
-            rmse = np.sqrt(np.mean((pred - target) ** 2, axis=0))
-            out.append(f"| {name} | " + " | ".join(f"{r:.3f}" for r in rmse) + " |")
-    return out
+        rmse = {name: np.sqrt(np.mean((pred - target) ** 2, axis=0)) for name, pred in predictions.items()}
+        for name, r in rmse.items():
+            out.append(f"| {name} | " + " | ".join(f"{v:.3f}" for v in r) + " |")
+        consistent = rmse["robocal consistent"]
+        checks = {"below CAD": consistent < rmse["CAD (URDF)"],
+                  "within 5 % of OLS": consistent <= 1.05 * rmse["robocal OLS"]}
+        if figaroh:
+            checks["below FIGAROH"] = consistent < rmse["FIGAROH 1.0.2 (OLS)"]
+        verdicts.append(f"against the {title.split(' (')[0]}: " + "; ".join(
+            f"{k} on every joint: " + ("yes" if ok.all() else "NO (" + ", ".join(
+                j for j, good in zip(res.recorded, ok) if not good) + ")") for k, ok in checks.items()))
+    return out + ["\nissue 22, the consistent model " + verdicts[0], "issue 22, the consistent model " + verdicts[1]]
 
 
 def run_figaroh(python, res, repeats: int) -> list[dict]:
