@@ -123,10 +123,10 @@ def identify_from_config(path_or_dict, base_dir=None) -> IdentifyResult:
         raise InputError("the training window identifies no parameter", source=str(cfg.files["position"]),
                          field="windows.train")
     cad = parameter_vector(model)
+    rss_ols, noise_unit = _noise_scale(reg_train, tau_train, ols)
     if cfg.prior_rule == "holdout":
         prior = _holdout_choice(cfg, reg_all, t_dec, tau_dec, train, guard, ols.sigma, cad)
     else:
-        rss_ols, noise_unit = _noise_scale(reg_train, tau_train, ols)
         prior = within_noise_choice(reg_train, tau_train, ols.sigma, cad, cfg.prior_grid, rss_ols, noise_unit,
                                     float(chi2.ppf(0.95, ols.selection.rank)))
     consistent = fit_consistent(reg_train, tau_train, ols.sigma, cad, prior.chosen)
@@ -149,9 +149,9 @@ def identify_from_config(path_or_dict, base_dir=None) -> IdentifyResult:
     consistency = {b: (float(np.linalg.eigvalsh(pseudo_inertia(p))[0]), is_physically_consistent(p))
                    for b, p in bodies.items()}
     beta_c = base_values_of(ols.selection, consistent.params)
-    within = _within_noise(reg_train, tau_train, ols, consistent, beta_c)
+    within = _within_noise(reg_train, tau_train, ols, consistent, beta_c, rss_ols, noise_unit)
     costs = constraint_costs(reg_train, tau_train, ols.sigma, cad, consistent,
-                             [model.names[j] for j in range(1, model.njoints)], within["noise_unit"])
+                             [model.names[j] for j in range(1, model.njoints)], noise_unit)
     wrench = _wrench_rms(cfg, model, proc.decimated(proc.q)[check], rec_idx, {k: curves[k] for k in MODELS},
                          tau_check)
     return IdentifyResult(cfg, model, recorded, proc, train, check, ols, consistent, prior, consistency, validation,
@@ -231,15 +231,15 @@ def _check_limits(cfg: IdentifyConfig, log: JointLog, model: pin.Model) -> None:
                              field=_position_column(cfg, name))
 
 
-def _within_noise(reg: Regressor, tau: np.ndarray, ols: BaseFit, fit: ConsistentFit, beta_c: np.ndarray) -> dict:
+def _within_noise(reg: Regressor, tau: np.ndarray, ols: BaseFit, fit: ConsistentFit, beta_c: np.ndarray,
+                  rss_ols: float, noise_unit: float) -> dict:
     """How far the consistent fit lies from the unconstrained one, in the unconstrained fit's noise:
     the weighted residual increase (= squared Mahalanobis distance of its base parameters from the
     OLS estimate, the model being linear in them) divided by the filtered noise's variance inflation
-    (serial_correlation.py), against the chi-square 95 % quantile."""
-    rss_ols, noise_unit = _noise_scale(reg, tau, ols)
-    w = np.tile(1.0 / ols.sigma, len(tau))
+    (serial_correlation.py), against the chi-square 95 % quantile. rss_ols, noise_unit: `_noise_scale`;
+    fit.data_cost is the fit's weighted residual on the same rows with the same weights."""
     pred_ols, pred_fit = ols.predict(reg), fit.predict(reg)
-    increase = (float(np.sum(((pred_fit - tau).reshape(-1) * w) ** 2)) - rss_ols) / (rss_ols / ols.dof)
+    increase = (fit.data_cost - rss_ols) / (rss_ols / ols.dof)
     p = ols.selection.rank
     return {"distance_in_noise_units": increase / ols.inflation, "noise_inflation": ols.inflation,
             "noise_unit": noise_unit,
