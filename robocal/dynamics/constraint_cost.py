@@ -29,13 +29,20 @@ MEASURABLE_COST = 0.5
 
 @dataclass
 class ConstraintCost:
-    """constraint: 'body of <joint> realisable' or '<term> >= 0'; cost: fall of the fit's objective when
-    it is dropped, in noise units; value_without: the body's smallest pseudo-inertia eigenvalue (kg m^2) or
-    the term's value, in the fit without it."""
+    """joint: the body's joint or the term's; kind: 'body' (its pseudo-inertia PSD) or the term's kind
+    (coulomb, viscous, armature: >= 0); cost: fall of the fit's objective when it is dropped, in noise
+    units; value_without: the body's smallest pseudo-inertia eigenvalue (kg m^2) or the term's value, in
+    the fit without it."""
 
-    constraint: str
+    joint: str
+    kind: str
     cost: float
     value_without: float
+
+    @property
+    def constraint(self) -> str:
+        """In words: 'body of <joint> realisable' or '<joint>.<kind> >= 0'."""
+        return f"body of {self.joint} realisable" if self.kind == "body" else f"{self.joint}.{self.kind} >= 0"
 
 
 def constraint_costs(reg: Regressor, tau: np.ndarray, sigma: np.ndarray, cad: np.ndarray, fit: ConsistentFit,
@@ -52,9 +59,10 @@ def constraint_costs(reg: Regressor, tau: np.ndarray, sigma: np.ndarray, cad: np
     for b, name in enumerate(body_names):
         relaxed = fit_consistent(reg, tau, sigma, cad, fit.prior_weight, free_bodies=(b,))
         eig = np.linalg.eigvalsh(pseudo_inertia(relaxed.inertial[10 * b:10 * b + 10]))[0]
-        out.append(ConstraintCost(f"body of {name} realisable", cost(relaxed), float(eig)))
+        out.append(ConstraintCost(name, "body", cost(relaxed), float(eig)))
     for name in terms:
         relaxed = fit_consistent(reg, tau, sigma, cad, fit.prior_weight, free_terms=(name,))
-        out.append(ConstraintCost(f"{name} >= 0", cost(relaxed), float(relaxed.extra[extra_names.index(name)])))
+        joint, kind = name.rsplit(".", 1)
+        out.append(ConstraintCost(joint, kind, cost(relaxed), float(relaxed.extra[extra_names.index(name)])))
     # binding: the fit without it breaks it (an inactive one would only move by the solver's tolerance)
     return sorted((c for c in out if c.value_without < 0.0), key=lambda c: -c.cost)

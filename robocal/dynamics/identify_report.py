@@ -214,11 +214,10 @@ def constraint_cost_lines(costs, joint_units: dict[str, str], shown: int = 5) ->
              f"at least {MEASURABLE_COST:g} noise unit (the fall of its training objective, same units, when "
              "dropped alone; the value it then takes):"]
     for c in costly:
-        if c.constraint.startswith("body "):
+        if c.kind == "body":
             what, unit = "smallest pseudo-inertia eigenvalue", "kg m^2"
         else:
-            joint, term = c.constraint.split(" ")[0].rsplit(".", 1)
-            what, unit = "value", term_unit(term, joint_units.get(joint, "N m"))
+            what, unit = "value", term_unit(c.kind, joint_units.get(c.joint, "N m"))
         lines.append(f"  {c.constraint:40s} {c.cost:9.3g}   ({what} without it {c.value_without:.3g} {unit})")
     if len(costs) > len(costly):
         lines.append(f"  ({len(costs) - len(costly)} more in result.json)")
