@@ -25,7 +25,6 @@ from robocal.dynamics.regression import Regressor, row_weights
 from robocal.errors import InputError
 
 NONNEGATIVE_TERMS = ("coulomb", "viscous", "armature")
-DEFAULT_GRID = tuple(10.0 ** np.arange(-4, 2.01, 0.5))     # half-decade steps
 
 
 @dataclass

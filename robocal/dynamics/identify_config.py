@@ -33,8 +33,7 @@ import numpy as np
 import pinocchio as pin
 
 from robocal.io.config import Cfg, read_yaml
-from robocal.dynamics.consistent_fit import DEFAULT_GRID
-from robocal.dynamics.prior_weight import RULES
+from robocal.dynamics.prior_weight import DEFAULT_GRID, RULES
 from robocal.dynamics.filtering import SignalOptions
 from robocal.dynamics.regression import EXTRA_TERMS
 from robocal.errors import InputError

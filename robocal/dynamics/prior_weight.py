@@ -23,6 +23,7 @@ from robocal.dynamics.consistent_fit import fit_consistent
 from robocal.dynamics.regression import Regressor
 
 RULES = ("within_noise", "holdout")
+DEFAULT_GRID = tuple(10.0 ** np.arange(-4, 2.01, 0.5))     # half-decade steps
 
 
 @dataclass
