@@ -56,7 +56,7 @@ def cmd_calibrate(args) -> int:
     if not args.no_report and (setup.raw.get("output") or {}).get("report", True):
         try:
             from robocal.viz.report import report_bytes   # matplotlib and meshcat: the optional [viz] extra
-            extra["report.html"] = report_bytes(result, extra.get("scene.json"), meshes=False,  # 1.5 MB, not 10
+            extra["report.html"] = report_bytes(result, extra["scene.json"], meshes=False,  # 1.5 MB, not 10
                                                 iso9283=iso)
         except ImportError as exc:   # matplotlib / meshcat come with the [viz] extra
             if not args.quiet:

@@ -24,16 +24,16 @@ def cmd_select(args) -> int:
     nominal = setup.problem.params.copy()
     result = calibrate(setup.problem, setup.options, source=str(args.config))
     before = result.registered_nominal(nominal)   # the scene shows the model before and after the fit
-    extra = {"selection.json": (json.dumps(selection.to_dict(), indent=2, allow_nan=True) + "\n").encode(),
-             "config.yaml": portable_config(args.config, rung.parameters)}
     note = scene_note(setup)
     if note:
         print(f"robocal: {note}", file=sys.stderr)
-    extra["scene.json"] = scene_bytes(setup, result, before)
+    extra = {"selection.json": (json.dumps(selection.to_dict(), indent=2, allow_nan=True) + "\n").encode(),
+             "config.yaml": portable_config(args.config, rung.parameters),
+             "scene.json": scene_bytes(setup, result, before)}
     if (setup.raw.get("output") or {}).get("report", True):
         try:
             from robocal.viz.report import report_bytes   # matplotlib and meshcat: the optional [viz] extra
-            extra["report.html"] = report_bytes(result, extra.get("scene.json"), meshes=False)
+            extra["report.html"] = report_bytes(result, extra["scene.json"], meshes=False)
         except ImportError as exc:
             print(f"robocal: no report.html ({exc.name} is not installed: pip install 'robocal[viz]')",
                   file=sys.stderr)

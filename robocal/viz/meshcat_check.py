@@ -30,13 +30,12 @@ import numpy as np
 import pinocchio as pin
 
 from robocal.viz.meshcat_page import STEP_SCRIPT, RecordingWindow
-from robocal.viz.scene import upgrade
+from robocal.viz.scene import samples_phrase, upgrade
 from robocal.viz.artefacts import draw_artefact
 from robocal.viz.measurements import current_point, draw_measurements, label_parts, rotation_scale
 from robocal.viz.shapes import ARROW_FRACTION, COLOURS, nice_factor, se3_from_pose7
 from robocal.viz.skeleton import draw_skeleton, segment_at
 from robocal.model.robot import load_urdf
-from robocal.io.wording import plural
 
 log = logging.getLogger(__name__)
 
@@ -211,16 +210,10 @@ class SceneView:
                  if drawn else f"sample {sample + 1} / {self.n_samples}")
         return where + ("; " + "; ".join(parts) if parts else "")
 
-    def samples_phrase(self) -> str:
-        drawn = self.scene.get("drawn")
-        if drawn:
-            return f"{self.n_samples} of {plural(drawn['of'], 'sample')} drawn (evenly spaced)"
-        return plural(self.n_samples, "sample")
-
     # ---- static page ---------------------------------------------------------------------------
     def legend_html(self) -> str:
         rows = [f'<b>robocal visual check</b>: {html.escape(self.scene["robot"]["name"])}, '
-                f'{self.samples_phrase()}. <span id="robocal-sample"></span>',
+                f'{samples_phrase(self.scene)}. <span id="robocal-sample"></span>',
                 '<button onclick="robocalShow(robocalSample-1)">&#9664; previous</button> '
                 '<button onclick="robocalShow(robocalSample+1)">next &#9654;</button>',
                 '<span class="dot" style="background:#202020"></span> measured '

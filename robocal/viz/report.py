@@ -18,9 +18,8 @@ import numpy as np
 
 from robocal.viz import plots
 from robocal.errors import InputError
-from robocal.io.wording import plural
 from robocal.viz.report_validation import evaluation_section, refusal_section
-from robocal.viz.scene import read_scene
+from robocal.viz.scene import read_scene, samples_phrase
 
 log = logging.getLogger(__name__)
 SHOWN = {"m": (1e3, "mm"), "rad": (1e3, "mrad")}
@@ -110,10 +109,7 @@ def report_html(result: dict, scene: dict | None = None, meshes: bool = True, ti
                ["condition number", format_value(result.get("condition_number"), ".3g")],
                ["residual / stated sigma", format_value(result.get("sigma_ratio"), ".3f")]]
     if scene:
-        drawn = scene.get("drawn")
-        samples = (f"{len(scene['values'])} of {plural(drawn['of'], 'sample')} drawn in the plots of points "
-                   "and the 3D check, evenly spaced" if drawn else plural(len(scene["values"]), "sample"))
-        summary.insert(0, ["robot", f"{scene['robot']['name']} ({samples})"])
+        summary.insert(0, ["robot", f"{scene['robot']['name']} ({samples_phrase(scene)})"])
     blocks = []
     for b0, b1 in zip(result.get("residuals_before", []), result.get("residuals_after", [])):
         fmt = lambda d: ", ".join(f"{v:.4g} {k}" for k, v in (d or {}).items())

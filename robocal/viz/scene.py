@@ -25,6 +25,7 @@ import numpy as np
 import pinocchio as pin
 
 from robocal.errors import InputError
+from robocal.io.wording import plural
 from robocal.model.batch_kinematics import BatchKinematics, supports_batch
 from robocal.model.kinematics import ModelState
 from robocal.model.lie_arrays import quaternions
@@ -61,6 +62,12 @@ def scene_note(problem) -> str | None:
         return None
     return (f"scene.json (the 3D check and the report's point plots) draws {MAX_SAMPLES} of the {n} samples, "
             "evenly spaced; every figure in result.json uses all of them")
+
+
+def samples_phrase(scene: dict) -> str:
+    """How many samples a scene holds, in words: "12 samples", or "5 of 12 samples drawn (evenly spaced)"."""
+    drawn, n = scene.get("drawn"), len(scene["values"])
+    return f"{n} of {plural(drawn['of'], 'sample')} drawn (evenly spaced)" if drawn else plural(n, "sample")
 
 
 def _pose7(M: pin.SE3) -> list[float]:
