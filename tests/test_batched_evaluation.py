@@ -78,6 +78,20 @@ def test_batched_residuals_and_jacobian_match_the_per_sample_reference(load_kind
     assert _relative(problem.evaluate().J, reference_evaluate(problem).J) < RTOL
 
 
+def test_kinematics_kept_between_passes_follow_every_parameter():
+    """One residual, so the regressors kept from the last pass would be reused: a frame change alone keeps
+    them, a joint placement or an offset must not."""
+    full = _problem(np.random.default_rng(13))
+    problem = Problem(full.robot, full.params, full.joint_names, full.values, full.residuals[:1],
+                      directions=full.directions)
+    problem.evaluate()
+    for name, step in (("tcp.rx", 0.05), ("elbow_joint.tx", 0.01), ("wrist_2_joint.rz", 0.05),
+                       ("shoulder_lift_joint.offset", 0.1), ("base.tz", 0.02)):
+        problem.params[name].value += step
+        ev, ref = problem.evaluate(), reference_evaluate(problem)
+        assert _relative(ev.r, ref.r) < RTOL and _relative(ev.J, ref.J) < RTOL, name
+
+
 def test_chunks_give_the_same_rows_as_one_pass():
     problem = _problem(np.random.default_rng(12))
     ev = problem.evaluate()

@@ -25,6 +25,7 @@ import pinocchio as pin
 from robocal.model.joint_jacobian_parts import JointJacobianParts
 from robocal.model.lie_arrays import adjoint_inverse, transpose
 from robocal.model.robot import ConfigurationMap
+from robocal.model.state_layout import contiguous
 
 LOCAL = pin.ReferenceFrame.LOCAL
 CONSTANT_SUBSPACE = {"JointModelRX", "JointModelRY", "JointModelRZ", "JointModelRevoluteUnaligned",
@@ -90,7 +91,8 @@ class SampleConstants:
             if jm.nv:
                 J = pin.getJointJacobian(model, data, jid, LOCAL)
                 self.subspace[jm.idx_v:jm.idx_v + jm.nv] = J[:, jm.idx_v:jm.idx_v + jm.nv].T
-        self.regressors: dict = {}                  # frame id -> (q, joint placements, regressors) of the last pass
+        self.regressors: dict = {}                  # joint id -> (samples, q, joint_key, regressors) of the last pass
+        self.support: dict = {}                     # joint id -> its regressor's columns that can be non-zero
         self.data = None                            # Pinocchio workspace of the batched passes
 
     def matches(self, values: np.ndarray) -> bool:
@@ -130,16 +132,15 @@ class BatchKinematics:
 
     def regressors(self, jid: int, samples: np.ndarray) -> np.ndarray:
         """(n, 6, 6 n_joints) LOCAL kinematic regressors of joint jid's frame at the samples, cached while the
-        configurations and the supporting joints' placements are unchanged. A frame's own placement is not
-        part of the key: a fit that moves only a tool or marker frame (the registration, a tool-only fit)
-        runs Pinocchio once (see `frame`)."""
+        configurations and the values that place the joints (ModelState.joint_key) are unchanged. A frame's
+        own placement is not part of the key: a fit that moves only a tool or marker frame (the registration,
+        a tool-only fit) runs Pinocchio once (see `frame`)."""
         q = self.q[samples]
         model = self.model
-        joints = model.supports[jid]
-        placements = np.array([model.jointPlacements[j].homogeneous for j in joints[1:]])
+        layout, placements = self.ms.joint_key       # the joint placements, as the values that set them
         hit = self.constants.regressors.get(jid)
-        if (hit is not None and np.array_equal(hit[0], samples) and np.array_equal(hit[1], q)
-                and np.array_equal(hit[2], placements)):
+        if (hit is not None and hit[2][0] is layout and np.array_equal(hit[0], samples) and
+                np.array_equal(hit[1], q) and np.array_equal(hit[2][1], placements)):
             return hit[3]
         # own Data (the per-sample path's cached state stays valid), kept between passes: a Data depends on
         # the model's structure only, which every calibrated copy shares
@@ -152,7 +153,7 @@ class BatchKinematics:
             pin.forwardKinematics(model, data, qi)
             out[row] = pin.computeJointKinematicRegressor(model, data, jid, LOCAL)
         if out.nbytes <= CACHE_BYTES:
-            self.constants.regressors[jid] = (samples.copy(), q, placements, out)
+            self.constants.regressors[jid] = (samples.copy(), q, self.ms.joint_key, out)
         return out
 
     def twist_map(self, ms) -> np.ndarray:
@@ -214,7 +215,10 @@ class BatchKinematics:
             # offsets act through the joints' columns Ad(X_j) S_j: folded into the placement map, one GEMM
             # serves both (regressors times a (6 n_joints, n_free) map); only the joints that support the
             # frame have non-zero regressor columns (a branched tree: the others are skipped, same product)
-            support = supporting_columns(model, model.frames[fid].parentJoint)
+            parent = model.frames[fid].parentJoint
+            support = self.constants.support.get(parent)
+            if support is None:
+                support = self.constants.support[parent] = supporting_columns(model, parent)
             if len(support) == 6 * nj:
                 parts.regressors, parts.tmap = reg, tmap
             else:
@@ -227,21 +231,15 @@ class BatchKinematics:
             for k, iv, c, w in ms.backlash_cols:            # d q_link / d b = d
                 parts.add(slice(c, c + 1), w * (Jq[:, :, iv] * self.directions[samples, k][:, None])[:, :, None])
         if fid in ms.P_frame:                  # constant columns, the frame's own only, seen from the joint
-            cols = contiguous(np.flatnonzero(np.any(ms.P_frame[fid] != 0.0, axis=0)))
+            groups = ms.frame_columns[fid]
+            cols = groups[0] if len(groups) == 1 else contiguous(np.unique(np.concatenate(
+                [np.arange(c.start, c.stop) if isinstance(c, slice) else c for c in groups])))
             parts.add(cols, (model.frames[fid].placement.toActionMatrix() @ ms.P_frame[fid])[:, cols])
-        if ms.has_base_params:
-            cols = contiguous(np.flatnonzero(np.any(ms.P_base != 0.0, axis=0)))    # the base's own columns only
-            parts.add(cols, adjoint_inverse(Ri, pi) @ ms.P_base[:, cols])
+        if ms.has_base_params:                 # the base's own columns only
+            parts.add(ms.base_columns, adjoint_inverse(Ri, pi) @ ms.P_base[:, ms.base_columns])
         return parts
-
-
-def contiguous(cols: np.ndarray):
-    """A slice for a run of consecutive column indices (a view: no gather and scatter of J), else the indices."""
-    if len(cols) and cols[-1] - cols[0] + 1 == len(cols):
-        return slice(int(cols[0]), int(cols[-1]) + 1)
-    return cols
 
 
 def supporting_columns(model, jid: int) -> np.ndarray:
     """Columns of a (6, 6 n_joints) kinematic regressor of joint jid that can be non-zero: its supports'."""
-    return np.array([6 * (j - 1) + c for j in model.supports[jid][1:] for c in range(6)], dtype=int)
+    return (6 * (np.asarray(model.supports[jid][1:], dtype=int)[:, None] - 1) + np.arange(6)).ravel()

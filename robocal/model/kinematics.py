@@ -50,12 +50,14 @@ class ModelState:
                                                                    layout.backlash_cols)
         self.P_frame: dict[int, np.ndarray] = {}
         self.P_base = np.zeros((6, self.n_free))
+        self.base_columns: slice | np.ndarray = slice(0, 0)
         self.base = robot_base = robot.base_placement
         self._read_v_index = layout.read_v_index
         tilts = [(jid, values[slot], cols) for jid, slot, cols in layout.tilts]
         induced = []   # joints that hang below a calibrated frame: (joint id, moved frame, its block)
         frame_blocks = []
         deltas = np.append(values, 0.0)[layout.group_value_index]     # (groups, 6); a missing component: 0
+        self.joint_key = (layout, deltas[layout.joint_group_rows])      # what the joint placements depend on
         for group, delta in zip(layout.groups, deltas):    # frames first, parents before children (state_layout)
             kind, target = group.kind, group.target
             block = pin.Jexp6(pin.Motion(delta)) @ group.selector
@@ -69,18 +71,20 @@ class ModelState:
                 moved_with = robot.frames_moved_with(fid)
                 for gid, rel in moved_with:
                     self.model.frames[gid].placement = moved * rel
-                frame_blocks.append((fid, block, [gid for gid, _ in moved_with]))
+                frame_blocks.append((fid, block, [gid for gid, _ in moved_with], group.columns))
                 for jid, rel in robot.joints_moved_with(fid):
                     self.model.jointPlacements[jid] = moved * rel
                     induced.append((jid, moved, block))
             else:
                 self.base = robot_base * _exp6(delta)
-                self.P_base = block
-        for fid, block, moved_with in frame_blocks:   # every placement final: frames below carry the twist
+                self.P_base, self.base_columns = block, group.columns
+        self.frame_columns: dict[int, list] = {}      # frame id -> the groups' columns its P_frame can move
+        for fid, block, moved_with, cols in frame_blocks:   # every placement final: frames below carry the twist
             final = self.model.frames[fid].placement
             for gid in moved_with:
                 rel = self.model.frames[gid].placement.inverse() * final
                 self.P_frame[gid] = self.P_frame.get(gid, 0.0) + rel.toActionMatrix() @ block
+                self.frame_columns.setdefault(gid, []).append(cols)
         for jid, moved, block in induced:
             final = self.model.jointPlacements[jid]
             self.P_joint[6 * (jid - 1):6 * jid] += (final.inverse() * moved).toActionMatrix() @ block

@@ -26,6 +26,7 @@ class PlacementGroup:
     kind: str
     target: str
     selector: np.ndarray
+    columns: slice | np.ndarray     # the free columns it moves (its block is 0 elsewhere); a slice if consecutive
 
 
 class StateLayout:
@@ -83,7 +84,13 @@ class StateLayout:
                 slots.append(value_slot(name) if name in params else None)
                 for j, w in col.get(name, []):
                     selector[c, j] += w
-            self.groups.append(PlacementGroup(kind, target, selector))
+            self.groups.append(PlacementGroup(kind, target, selector,
+                                              contiguous(np.flatnonzero(np.any(selector != 0.0, axis=0)))))
+        # the groups that move joint placements (a joint's own, a fixed link's frame with joints below it):
+        # their values and this layout decide the calibrated model's joint placements
+        self.joint_group_rows = np.array([i for i, g in enumerate(self.groups) if g.kind == "joint_placement" or
+                                          (g.kind == "frame_placement" and robot.joints_moved_with(g.target))],
+                                         dtype=int)
         self.value_names = names
         # each group's six values in the value vector extended by one 0 (a component without parameter)
         self.group_value_index = np.array([len(names) if i is None else i for i in slots], dtype=int).reshape(-1, 6)
@@ -100,6 +107,13 @@ class StateLayout:
         out = np.zeros(n_read)
         out[k] = values[slots]
         return out
+
+
+def contiguous(cols: np.ndarray):
+    """A slice for a run of consecutive column indices (a view: no gather and scatter of J), else the indices."""
+    if len(cols) and cols[-1] - cols[0] + 1 == len(cols):
+        return slice(int(cols[0]), int(cols[-1]) + 1)
+    return cols
 
 
 def structure_key(params: ParameterSet, joint_names: list[str], robot) -> tuple:
