@@ -151,8 +151,9 @@ class Problem:
                     if jacobian:
                         direct = out is not None and n_keep == res.dim
                         # the row scales and the frame's placement folded into the (n, dim, 6) derivative:
-                        # no extra pass over J
-                        Jt = fa.project((t.D * scale[:, None]) @ fa.to_frame,
+                        # no extra pass over J (the stack times one matrix as one GEMM)
+                        M = ((t.D * scale[:, None]).reshape(-1, 6) @ fa.to_frame).reshape(t.D.shape)
+                        Jt = fa.project(M,
                                         out=out[rows].reshape(n_t, res.dim, n_free) if direct else None)
                         for j, c, w in aux_cols:
                             Jt[:, :, c] += w * t.aux[:, :, j] * scale

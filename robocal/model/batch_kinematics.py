@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from robocal.model.joint_jacobian_parts import JointJacobianParts
+from robocal.model.joint_jacobian_parts import GemmBlocks, JointJacobianParts
 from robocal.model.lie_arrays import adjoint_inverse, transpose
 from robocal.model.robot import ConfigurationMap
 from robocal.model.state_layout import contiguous
@@ -92,7 +92,7 @@ class SampleConstants:
                 J = pin.getJointJacobian(model, data, jid, LOCAL)
                 self.subspace[jm.idx_v:jm.idx_v + jm.nv] = J[:, jm.idx_v:jm.idx_v + jm.nv].T
         self.regressors: dict = {}                  # joint id -> (samples, q, joint_key, regressors) of the last pass
-        self.support: dict = {}                     # joint id -> its regressor's columns that can be non-zero
+        self.support: dict = {}         # joint id -> (layout, its regressor's columns that can be non-zero, GemmBlocks)
         self.data = None                            # Pinocchio workspace of the batched passes
 
     def matches(self, values: np.ndarray) -> bool:
@@ -216,9 +216,11 @@ class BatchKinematics:
             # serves both (regressors times a (6 n_joints, n_free) map); only the joints that support the
             # frame have non-zero regressor columns (a branched tree: the others are skipped, same product)
             parent = model.frames[fid].parentJoint
-            support = self.constants.support.get(parent)
-            if support is None:
-                support = self.constants.support[parent] = supporting_columns(model, parent)
+            plan = self.constants.support.get(parent)
+            if plan is None or plan[0] is not ms.layout:
+                plan = self.constants.support[parent] = (ms.layout, supporting_columns(model, parent),
+                                                         gemm_blocks(model, ms, parent))
+            _, support, parts.blocks = plan
             if len(support) == 6 * nj:
                 parts.regressors, parts.tmap = reg, tmap
             else:
@@ -243,3 +245,21 @@ class BatchKinematics:
 def supporting_columns(model, jid: int) -> np.ndarray:
     """Columns of a (6, 6 n_joints) kinematic regressor of joint jid that can be non-zero: its supports'."""
     return (6 * (np.asarray(model.supports[jid][1:], dtype=int)[:, None] - 1) + np.arange(6)).ravel()
+
+
+def gemm_blocks(model, ms, jid: int) -> GemmBlocks | None:
+    """Which free columns each joint supporting jid reaches through the twist map (its placement's, a
+    calibrated fixed link's above it, its offset's), from the layout: value-independent. None when two
+    joints share a column (ties across joints): the GEMM then runs over the whole map."""
+    rows, cols, seen = [], [], np.zeros(ms.n_free, dtype=bool)
+    for k, j in enumerate(model.supports[jid][1:]):
+        reach = np.union1d(ms.layout.joint_columns.get(j, np.zeros(0, dtype=int)),
+                           np.flatnonzero(ms.P_offset[model.joints[j].idx_v]))
+        if len(reach) == 0:
+            continue
+        if seen[reach].any():
+            return None
+        seen[reach] = True
+        rows.append(slice(6 * k, 6 * k + 6))
+        cols.append(contiguous(reach))
+    return GemmBlocks(rows, cols, np.flatnonzero(~seen))

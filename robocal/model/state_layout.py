@@ -86,6 +86,15 @@ class StateLayout:
                     selector[c, j] += w
             self.groups.append(PlacementGroup(kind, target, selector,
                                               contiguous(np.flatnonzero(np.any(selector != 0.0, axis=0)))))
+        # each joint's placement twist moves with these free columns (its own placement, a calibrated fixed
+        # link it hangs from), whatever the values: the batched Jacobian's GEMM runs block by block over them
+        moving: dict[int, list] = {}
+        for g in self.groups:
+            moved = ([robot.joint_id(g.target)] if g.kind == "joint_placement" else
+                     [jid for jid, _ in robot.joints_moved_with(g.target)] if g.kind == "frame_placement" else [])
+            for jid in moved:
+                moving.setdefault(jid, []).append(np.arange(self.n_free)[g.columns])
+        self.joint_columns = {jid: np.unique(np.concatenate(c)) for jid, c in moving.items()}
         # the groups that move joint placements (a joint's own, a fixed link's frame with joints below it):
         # their values and this layout decide the calibrated model's joint placements
         self.joint_group_rows = np.array([i for i, g in enumerate(self.groups) if g.kind == "joint_placement" or
