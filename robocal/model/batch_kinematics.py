@@ -233,9 +233,7 @@ class BatchKinematics:
             for k, iv, c, w in ms.backlash_cols:            # d q_link / d b = d
                 parts.add(slice(c, c + 1), w * (Jq[:, :, iv] * self.directions[samples, k][:, None])[:, :, None])
         if fid in ms.P_frame:                  # constant columns, the frame's own only, seen from the joint
-            groups = ms.frame_columns[fid]
-            cols = groups[0] if len(groups) == 1 else contiguous(np.unique(np.concatenate(
-                [np.arange(c.start, c.stop) if isinstance(c, slice) else c for c in groups])))
+            cols = ms.layout.frame_columns[fid]
             parts.add(cols, (model.frames[fid].placement.toActionMatrix() @ ms.P_frame[fid])[:, cols])
         if ms.has_base_params:                 # the base's own columns only
             parts.add(ms.base_columns, adjoint_inverse(Ri, pi) @ ms.P_base[:, ms.base_columns])

@@ -71,20 +71,18 @@ class ModelState:
                 moved_with = robot.frames_moved_with(fid)
                 for gid, rel in moved_with:
                     self.model.frames[gid].placement = moved * rel
-                frame_blocks.append((fid, block, [gid for gid, _ in moved_with], group.columns))
+                frame_blocks.append((fid, block, [gid for gid, _ in moved_with]))
                 for jid, rel in robot.joints_moved_with(fid):
                     self.model.jointPlacements[jid] = moved * rel
                     induced.append((jid, moved, block))
             else:
                 self.base = robot_base * _exp6(delta)
                 self.P_base, self.base_columns = block, group.columns
-        self.frame_columns: dict[int, list] = {}      # frame id -> the groups' columns its P_frame can move
-        for fid, block, moved_with, cols in frame_blocks:   # every placement final: frames below carry the twist
+        for fid, block, moved_with in frame_blocks:   # every placement final: frames below carry the twist
             final = self.model.frames[fid].placement
             for gid in moved_with:
                 rel = self.model.frames[gid].placement.inverse() * final
                 self.P_frame[gid] = self.P_frame.get(gid, 0.0) + rel.toActionMatrix() @ block
-                self.frame_columns.setdefault(gid, []).append(cols)
         for jid, moved, block in induced:
             final = self.model.jointPlacements[jid]
             self.P_joint[6 * (jid - 1):6 * jid] += (final.inverse() * moved).toActionMatrix() @ block

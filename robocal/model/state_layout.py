@@ -95,6 +95,13 @@ class StateLayout:
             for jid in moved:
                 moving.setdefault(jid, []).append(np.arange(self.n_free)[g.columns])
         self.joint_columns = {jid: np.unique(np.concatenate(c)) for jid, c in moving.items()}
+        # likewise each frame's constant block (P_frame): the columns of the calibrated frames it moves with
+        framed: dict[int, list] = {}
+        for g in self.groups:
+            if g.kind == "frame_placement":
+                for gid, _ in robot.frames_moved_with(g.target):
+                    framed.setdefault(gid, []).append(np.arange(self.n_free)[g.columns])
+        self.frame_columns = {gid: contiguous(np.unique(np.concatenate(c))) for gid, c in framed.items()}
         # the groups that move joint placements (a joint's own, a fixed link's frame with joints below it):
         # their values and this layout decide the calibrated model's joint placements
         self.joint_group_rows = np.array([i for i, g in enumerate(self.groups) if g.kind == "joint_placement" or
