@@ -11,7 +11,8 @@ Table 1, UR5 full calibration (joint offsets and placements, tool, base; 6D pose
   (median), the four in turn, 3 times over (median).
 Table 2, calibrate() wall time: batched vs the reference evaluation (with today's solver), and with
 --baseline DIR the same fit run by another robocal tree (e.g. `git archive <commit> robocal | tar -x -C DIR`)
-in a subprocess. Table 3: TIAGo (examples/tiago_mocap/full_bl.yaml) calibrate() and the command line.
+in a subprocess. Table 3: TIAGo (examples/tiago_mocap/full_bl.yaml) calibrate() and the command line
+(robocal's bytecode compiled first, as pip leaves an installed package: benchmarks/cli_timing.py).
 With --figaroh [--figaroh-venv PATH], Table 4 is benchmarks/tiago_figaroh_calibration.py run as a subprocess:
 the same TIAGo fit against FIGAROH 1.0.2 (installed into its own virtual environment), 3 repeats.
 Each figure is the median of 3 runs; the machine may be shared, so compare ratios within the run.
@@ -21,6 +22,7 @@ import os
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -35,6 +37,7 @@ from synthetic_cases import ur5_pose_problem  # noqa: E402
 from robocal.design.simulate import perturb, simulate_measurements  # noqa: E402
 from robocal.estimation.calibrate import calibrate  # noqa: E402
 from robocal.io.config import load_config  # noqa: E402
+from cli_timing import robocal_cli_seconds  # noqa: E402
 from figaroh_env import add_options, skip_message  # noqa: E402
 
 REPEATS = 3
@@ -135,12 +138,7 @@ def tiago_fit(reference):
 
 def tiago_times():
     """Median seconds: calibrate() batched, with the reference evaluation, and the command line end to end."""
-    out = os.path.join("/tmp", f"robocal_speed_{os.getpid()}")
-    cmd = [sys.executable, "-c", "import sys; sys.path.insert(0, sys.argv[1]); from robocal.cli.main import main; "
-           "sys.exit(main(sys.argv[2:]))", ROOT, "calibrate", TIAGO, "-o", out, "--force", "--no-report", "-q"]
-    runs = [(tiago_fit(False), tiago_fit(True), median_time(lambda: subprocess.run(cmd, check=True,
-                                                                                    capture_output=True), 1))
-            for _ in range(REPEATS)]
+    runs = [(tiago_fit(False), tiago_fit(True), robocal_cli_seconds(Path(ROOT), Path(TIAGO))) for _ in range(REPEATS)]
     return np.median(np.array(runs), axis=0)
 
 

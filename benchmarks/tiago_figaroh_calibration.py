@@ -10,7 +10,8 @@ machine's load hits both alike, four fresh processes:
   the process has loaded the data and built its problem (FIGAROH's parameter selection runs before, in
   initialize(), and is printed apart; robocal's calibrate() includes its own);
 - end to end: `robocal calibrate full_bl.yaml -o DIR --no-report` and FIGAROH's whole driver script (fit,
-  quality report, parameters written), each timed from process start to exit.
+  quality report, parameters written), each timed from process start to exit, both with their packages'
+  bytecode compiled as pip leaves them (benchmarks/cli_timing.py).
 Medians over the repeats. RMSE (both tools, same postures): norm RMSE of BL's position error,
 sqrt(mean |e|^2) in mm, on the training session and on the validation session (62 postures, 2021-11-26),
 the model fitted on training only. Without --figaroh only robocal's side runs.
@@ -20,7 +21,6 @@ import json
 import os
 import subprocess
 import sys
-import tempfile
 import time
 from pathlib import Path
 
@@ -30,6 +30,7 @@ sys.path.insert(0, str(ROOT))          # this tree's robocal, not an installed o
 sys.path.insert(1, str(ROOT / "benchmarks"))
 import numpy as np  # noqa: E402
 
+from cli_timing import robocal_cli_seconds  # noqa: E402
 from figaroh_env import add_options, figaroh_python, run_driver  # noqa: E402
 from robocal.estimation.calibrate import calibrate  # noqa: E402
 from robocal.estimation.evaluation import setup_for_data, term_errors  # noqa: E402
@@ -61,20 +62,6 @@ def robocal_fit_process() -> dict:
     return json.loads(run.stdout.strip().splitlines()[-1])
 
 
-def robocal_cli_seconds() -> float:
-    """`robocal calibrate --no-report` from process start to exit (its files written), this tree's robocal."""
-    with tempfile.TemporaryDirectory(prefix="robocal_tiago_") as tmp:
-        out = Path(tmp) / "out"          # a new folder: robocal refuses to write into one it did not make
-        cmd = [sys.executable, "-c", "import sys; sys.path.insert(0, sys.argv[1]); from robocal.cli.main import main; "
-               "sys.exit(main(sys.argv[2:]))", str(ROOT), "calibrate", str(CONFIG), "-o", str(out), "--no-report", "-q"]
-        t0 = time.perf_counter()
-        subprocess.run(cmd, check=True, capture_output=True)
-        seconds = time.perf_counter() - t0
-        if not out.is_dir() or not any(out.iterdir()):
-            raise RuntimeError("robocal calibrate wrote nothing")
-        return seconds
-
-
 def figaroh_request(mode: str) -> dict:
     return {"mode": mode, "config": str(FIGAROH_CONFIG), "urdf": str(MOCAP / "data" / "tiago_48_schunk.urdf"),
             "training": str(TRAINING), "validation": str(VALIDATION)}
@@ -87,7 +74,7 @@ def measure(python, repeats: int) -> dict:
         runs["robocal"].append(robocal_fit_process())
         if python:
             runs["figaroh"].append(run_driver(python, "calibration_driver.py", figaroh_request("fit"))[0])
-        runs["robocal_cli"].append(robocal_cli_seconds())
+        runs["robocal_cli"].append(robocal_cli_seconds(ROOT, CONFIG))
         if python:
             runs["figaroh_script"].append(run_driver(python, "calibration_driver.py", figaroh_request("script"))[1])
     return runs
