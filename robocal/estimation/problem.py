@@ -104,22 +104,25 @@ class Problem:
         case goes term by term through SampleState. Both write straight into one preallocated Jacobian."""
         self.blocks = self.layout()  # priors may have been switched on or off
         m = self.blocks[-1].rows.stop if self.blocks else 0
-        n_free = len(self.params.free_names)
+        ms = self.model_state()
+        n_free = ms.n_free
         # every row is written below (each piece fills its rows): no zeroing pass
         ev = Evaluation(np.empty(m), np.empty((m, n_free)) if jacobian else None, np.empty(m), np.empty(m, int))
         # in chunks of terms: the per-sample work arrays (regressors: 1.7 kB a pose) stay bounded
-        for rows, r, raw, group, J in self.pieces(jacobian, EVALUATE_CHUNK_TERMS, out=ev.J):
+        for rows, r, raw, group, J in self.pieces(jacobian, EVALUATE_CHUNK_TERMS, out=ev.J, ms=ms):
             ev.r[rows], ev.raw[rows], ev.group[rows] = r, raw, group
             if jacobian and not np.may_share_memory(J, ev.J):
                 ev.J[rows] = J
         return ev
 
-    def pieces(self, jacobian: bool = True, chunk_terms: int | None = None, out: np.ndarray | None = None):
+    def pieces(self, jacobian: bool = True, chunk_terms: int | None = None, out: np.ndarray | None = None,
+               ms: ModelState | None = None):
         """Yield (rows, r, raw, group, J) for consecutive row ranges of the stacked problem: a batched
         residual in chunks of at most `chunk_terms` terms (None: all at once), any other residual whole,
         and the prior rows last. Memory then grows with the chunk, not with the samples. With `out`, the
-        whole (m, n_free) Jacobian, batched rows are written straight into it (J is then a view of it)."""
-        ms = self.model_state()
+        whole (m, n_free) Jacobian, batched rows are written straight into it (J is then a view of it). `ms`: the
+        model at the current values, when the caller has it already."""
+        ms = ms or self.model_state()
         col = ms.layout.columns        # the parameter structure's column map, worked out once
         n_free = ms.n_free
         batch = None

@@ -92,6 +92,7 @@ class SampleConstants:
                 J = pin.getJointJacobian(model, data, jid, LOCAL)
                 self.subspace[jm.idx_v:jm.idx_v + jm.nv] = J[:, jm.idx_v:jm.idx_v + jm.nv].T
         self.regressors: dict = {}                  # joint id -> (samples, q, joint_key, regressors) of the last pass
+        self.offset_map = None          # (P_offset, its twist-map rows, any non-zero) of the last layout
         self.support: dict = {}         # joint id -> (layout, its regressor's columns that can be non-zero, GemmBlocks)
         self.data = None                            # Pinocchio workspace of the batched passes
 
@@ -128,7 +129,7 @@ class BatchKinematics:
             link = link - ms.compliance * constants.tau
         self.q = constants.configurations(link)
         self.directions = directions
-        self._twist_map = None
+        self._twist_map, self._moves_joints = None, False
 
     def regressors(self, jid: int, samples: np.ndarray) -> np.ndarray:
         """(n, 6, 6 n_joints) LOCAL kinematic regressors of joint jid's frame at the samples, cached while the
@@ -149,9 +150,10 @@ class BatchKinematics:
             data = self.constants.data = model.createData()
         shape = (len(samples), 6, 6 * (model.njoints - 1))
         out = hit[3] if hit is not None and hit[3].shape == shape else np.empty(shape)   # the old entry's memory
+        fk, regressor = pin.forwardKinematics, pin.computeJointKinematicRegressor
         for row, qi in enumerate(q):
-            pin.forwardKinematics(model, data, qi)
-            out[row] = pin.computeJointKinematicRegressor(model, data, jid, LOCAL)
+            fk(model, data, qi)
+            out[row] = regressor(model, data, jid, LOCAL)
         if out.nbytes <= CACHE_BYTES:
             self.constants.regressors[jid] = (samples.copy(), q, self.ms.joint_key, out)
         return out
@@ -160,9 +162,13 @@ class BatchKinematics:
         """(6 n_joints, n_free): d(placement twists)/d(free parameters), with each offset column written as
         its joint's motion subspace S_j (a joint turning by dq moves the frame like a placement twist S_j dq)."""
         if self._twist_map is None:
-            S = self.constants.subspace                       # (nv, 6); one-dof joints: v = joint - 1
-            offsets = (S[:, :, None] * ms.P_offset[:, None, :]).reshape(6 * len(S), ms.n_free)
-            self._twist_map = offsets + ms.P_joint if ms.has_joint_params else offsets
+            kept = self.constants.offset_map           # the offsets' part: structure only, kept per layout
+            if kept is None or kept[0] is not ms.P_offset:
+                S = self.constants.subspace                   # (nv, 6); one-dof joints: v = joint - 1
+                offsets = (S[:, :, None] * ms.P_offset[:, None, :]).reshape(6 * len(S), ms.n_free)
+                kept = self.constants.offset_map = (ms.P_offset, offsets, bool(offsets.any()))
+            self._twist_map = kept[1] + ms.P_joint if ms.has_joint_params else kept[1]
+            self._moves_joints = ms.has_joint_params or kept[2]
         return self._twist_map
 
     def frame(self, frame, samples, jacobian: bool = True) -> FrameArrays:
@@ -211,7 +217,7 @@ class BatchKinematics:
         n, nj, nf = len(samples), model.njoints - 1, ms.n_free
         tmap = self.twist_map(ms)
         parts = JointJacobianParts(n, nf, None, None)
-        if tmap.any():
+        if self._moves_joints:
             # offsets act through the joints' columns Ad(X_j) S_j: folded into the placement map, one GEMM
             # serves both (regressors times a (6 n_joints, n_free) map); only the joints that support the
             # frame have non-zero regressor columns (a branched tree: the others are skipped, same product)

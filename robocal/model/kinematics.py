@@ -59,14 +59,14 @@ class ModelState:
         deltas = np.append(values, 0.0)[layout.group_value_index]     # (groups, 6); a missing component: 0
         self.joint_key = (layout, deltas[layout.joint_group_rows])      # what the joint placements depend on
         for group, delta in zip(layout.groups, deltas):    # frames first, parents before children (state_layout)
-            kind, target = group.kind, group.target
+            kind = group.kind
             block = pin.Jexp6(pin.Motion(delta)) @ group.selector
             if kind == "joint_placement":
-                jid = robot.joint_id(target)
+                jid = group.index
                 self.model.jointPlacements[jid] = self.model.jointPlacements[jid] * _exp6(delta)
                 self.P_joint[6 * (jid - 1):6 * jid] += block
             elif kind == "frame_placement":
-                fid = robot.frame_id(target)
+                fid = group.index
                 moved = self.model.frames[fid].placement * _exp6(delta)
                 moved_with = robot.frames_moved_with(fid)
                 for gid, rel in moved_with:
@@ -87,7 +87,7 @@ class ModelState:
             final = self.model.jointPlacements[jid]
             self.P_joint[6 * (jid - 1):6 * jid] += (final.inverse() * moved).toActionMatrix() @ block
         self._owner: SampleState | None = None
-        self.has_joint_params, self.has_base_params = bool(self.P_joint.any()), bool(self.P_base.any())
+        self.has_joint_params, self.has_base_params = layout.has_joint_params, layout.has_base_params
         self._qmap = layout.qmap
         if self.compliance.any() or self.compliance_cols:
             self._gdata = nominal.createData()

@@ -25,6 +25,7 @@ class PlacementGroup:
 
     kind: str
     target: str
+    index: int                      # the joint's or frame's id in the model (-1: the base)
     selector: np.ndarray
     columns: slice | np.ndarray     # the free columns it moves (its block is 0 elsewhere); a slice if consecutive
 
@@ -84,7 +85,9 @@ class StateLayout:
                 slots.append(value_slot(name) if name in params else None)
                 for j, w in col.get(name, []):
                     selector[c, j] += w
-            self.groups.append(PlacementGroup(kind, target, selector,
+            index = (robot.joint_id(target) if kind == "joint_placement" else
+                     robot.frame_id(target) if kind == "frame_placement" else -1)
+            self.groups.append(PlacementGroup(kind, target, index, selector,
                                               contiguous(np.flatnonzero(np.any(selector != 0.0, axis=0)))))
         # each joint's placement twist moves with these free columns (its own placement, a calibrated fixed
         # link it hangs from), whatever the values: the batched Jacobian's GEMM runs block by block over them
@@ -95,6 +98,8 @@ class StateLayout:
             for jid in moved:
                 moving.setdefault(jid, []).append(np.arange(self.n_free)[g.columns])
         self.joint_columns = {jid: np.unique(np.concatenate(c)) for jid, c in moving.items()}
+        self.has_joint_params = any(len(c) for c in self.joint_columns.values())
+        self.has_base_params = any(g.kind == "base" and len(np.arange(self.n_free)[g.columns]) for g in self.groups)
         # likewise each frame's constant block (P_frame): the columns of the calibrated frames it moves with
         framed: dict[int, list] = {}
         for g in self.groups:
