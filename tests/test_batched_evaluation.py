@@ -92,6 +92,28 @@ def test_kinematics_kept_between_passes_follow_every_parameter():
         assert _relative(ev.r, ref.r) < RTOL and _relative(ev.J, ref.J) < RTOL, name
 
 
+def test_kept_kinematics_serve_another_parameter_structure(monkeypatch):
+    """A registration (frames free, joints fixed) after a full pass at the same joint placements reuses the
+    regressors: Pinocchio is not run again; a joint placement moved runs it."""
+    full = _problem(np.random.default_rng(14))
+    problem = Problem(full.robot, full.params, full.joint_names, full.values, full.residuals[:1],
+                      directions=full.directions)
+    calls = []
+    regressor = pin.computeJointKinematicRegressor
+    monkeypatch.setattr(pin, "computeJointKinematicRegressor", lambda *a: calls.append(1) or regressor(*a))
+    problem.evaluate()
+    first = len(calls)
+    assert first == len(problem.residuals[0].samples)
+    for p in problem.params:                 # the registration's structure: only frames and the base free
+        if p.kind not in ("frame_placement", "base"):
+            p.vary = False
+    ev, ref = problem.evaluate(), reference_evaluate(problem)
+    assert len(calls) == first and _relative(ev.J, ref.J) < RTOL
+    problem.params["elbow_joint.tx"].value += 0.01
+    ev, ref = problem.evaluate(), reference_evaluate(problem)
+    assert len(calls) > first and _relative(ev.J, ref.J) < RTOL and _relative(ev.r, ref.r) < RTOL
+
+
 def test_chunks_give_the_same_rows_as_one_pass():
     problem = _problem(np.random.default_rng(12))
     ev = problem.evaluate()

@@ -138,9 +138,9 @@ class BatchKinematics:
         a tool-only fit) runs Pinocchio once (see `frame`)."""
         q = self.q[samples]
         model = self.model
-        layout, placements = self.ms.joint_key       # the joint placements, as the values that set them
+        robot, placements = self.ms.joint_key        # the joint placements, as the values that set them
         hit = self.constants.regressors.get(jid)
-        if (hit is not None and hit[2][0] is layout and np.array_equal(hit[0], samples) and
+        if (hit is not None and hit[2][0] is robot and np.array_equal(hit[0], samples) and
                 np.array_equal(hit[1], q) and np.array_equal(hit[2][1], placements)):
             return hit[3]
         # own Data (the per-sample path's cached state stays valid), kept between passes: a Data depends on

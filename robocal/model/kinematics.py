@@ -23,6 +23,15 @@ def _exp6(v: np.ndarray) -> pin.SE3:
     return pin.exp6(pin.Motion(np.asarray(v, dtype=float)))
 
 
+def joint_key(robot, layout, deltas: np.ndarray) -> tuple:
+    """What the calibrated model's joint placements depend on, whatever the parameter structure: the robot and,
+    for each group that moves a joint and is away from zero (exp6(0) is exactly the identity), its id, kind and
+    six values. Equal keys: equal placements (the batched path keeps its regressors on it)."""
+    moving = deltas[layout.joint_group_rows]
+    away = np.any(moving != 0.0, axis=1)
+    return robot, np.hstack([layout.joint_group_ids[away], moving[away]])
+
+
 class ModelState:
     """A calibrated copy of the robot's model for the current parameter values.
 
@@ -57,7 +66,7 @@ class ModelState:
         induced = []   # joints that hang below a calibrated frame: (joint id, moved frame, its block)
         frame_blocks = []
         deltas = np.append(values, 0.0)[layout.group_value_index]     # (groups, 6); a missing component: 0
-        self.joint_key = (layout, deltas[layout.joint_group_rows])      # what the joint placements depend on
+        self.joint_key = joint_key(robot, layout, deltas)
         for group, delta in zip(layout.groups, deltas):    # frames first, parents before children (state_layout)
             kind = group.kind
             block = pin.Jexp6(pin.Motion(delta)) @ group.selector

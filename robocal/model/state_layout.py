@@ -108,10 +108,12 @@ class StateLayout:
                     framed.setdefault(gid, []).append(np.arange(self.n_free)[g.columns])
         self.frame_columns = {gid: contiguous(np.unique(np.concatenate(c))) for gid, c in framed.items()}
         # the groups that move joint placements (a joint's own, a fixed link's frame with joints below it):
-        # their values and this layout decide the calibrated model's joint placements
+        # their ids and values decide the calibrated model's joint placements (ModelState.joint_key)
         self.joint_group_rows = np.array([i for i, g in enumerate(self.groups) if g.kind == "joint_placement" or
                                           (g.kind == "frame_placement" and robot.joints_moved_with(g.target))],
                                          dtype=int)
+        self.joint_group_ids = np.array([[self.groups[i].index, self.groups[i].kind == "frame_placement"]
+                                         for i in self.joint_group_rows], dtype=float).reshape(-1, 2)
         self.value_names = names
         # each group's six values in the value vector extended by one 0 (a component without parameter)
         self.group_value_index = np.array([len(names) if i is None else i for i in slots], dtype=int).reshape(-1, 6)
