@@ -89,36 +89,41 @@ class StateLayout:
                      robot.frame_id(target) if kind == "frame_placement" else -1)
             self.groups.append(PlacementGroup(kind, target, index, selector,
                                               contiguous(np.flatnonzero(np.any(selector != 0.0, axis=0)))))
-        # each joint's placement twist moves with these free columns (its own placement, a calibrated fixed
-        # link it hangs from), whatever the values: the batched Jacobian's GEMM runs block by block over them
-        moving: dict[int, list] = {}
-        for g in self.groups:
-            moved = ([robot.joint_id(g.target)] if g.kind == "joint_placement" else
-                     [jid for jid, _ in robot.joints_moved_with(g.target)] if g.kind == "frame_placement" else [])
-            for jid in moved:
-                moving.setdefault(jid, []).append(np.arange(self.n_free)[g.columns])
-        self.joint_columns = {jid: np.unique(np.concatenate(c)) for jid, c in moving.items()}
-        self.has_joint_params = any(len(c) for c in self.joint_columns.values())
-        self.has_base_params = any(g.kind == "base" and len(np.arange(self.n_free)[g.columns]) for g in self.groups)
-        # likewise each frame's constant block (P_frame): the columns of the calibrated frames it moves with
-        framed: dict[int, list] = {}
-        for g in self.groups:
-            if g.kind == "frame_placement":
-                for gid, _ in robot.frames_moved_with(g.target):
-                    framed.setdefault(gid, []).append(np.arange(self.n_free)[g.columns])
-        self.frame_columns = {gid: contiguous(np.unique(np.concatenate(c))) for gid, c in framed.items()}
-        # the groups that move joint placements (a joint's own, a fixed link's frame with joints below it):
-        # their ids and values decide the calibrated model's joint placements (ModelState.joint_key)
-        self.joint_group_rows = np.array([i for i, g in enumerate(self.groups) if g.kind == "joint_placement" or
-                                          (g.kind == "frame_placement" and robot.joints_moved_with(g.target))],
-                                         dtype=int)
-        self.joint_group_ids = np.array([[self.groups[i].index, self.groups[i].kind == "frame_placement"]
-                                         for i in self.joint_group_rows], dtype=float).reshape(-1, 2)
+        self._reach(robot)
         self.value_names = names
         # each group's six values in the value vector extended by one 0 (a component without parameter)
         self.group_value_index = np.array([len(names) if i is None else i for i in slots], dtype=int).reshape(-1, 6)
         self.qmap = ConfigurationMap(robot, joint_names)
         self.has_transmission = any(p.kind == "transmission" for p in params)
+
+    def _reach(self, robot) -> None:
+        """Which free columns each joint's placement twist and each frame's constant block can move, whatever the
+        values (the batched Jacobian's block GEMM and column terms), and which groups move joint placements."""
+        def indices(group):
+            return np.arange(self.n_free)[group.columns]
+        moving: dict[int, list] = {}     # a joint: its own placement, a calibrated fixed link it hangs from
+        framed: dict[int, list] = {}     # a frame: the calibrated frames it moves with
+        joint_rows = []                  # groups that move joint placements: their ids and values decide them
+        for i, g in enumerate(self.groups):
+            if g.kind == "joint_placement":
+                moved = [g.index]
+            elif g.kind == "frame_placement":
+                moved = [jid for jid, _ in robot.joints_moved_with(g.index)]
+                for gid, _ in robot.frames_moved_with(g.index):
+                    framed.setdefault(gid, []).append(indices(g))
+            else:
+                moved = []
+            for jid in moved:
+                moving.setdefault(jid, []).append(indices(g))
+            if moved or g.kind == "joint_placement":
+                joint_rows.append(i)
+        self.joint_columns = {jid: np.unique(np.concatenate(c)) for jid, c in moving.items()}
+        self.frame_columns = {gid: contiguous(np.unique(np.concatenate(c))) for gid, c in framed.items()}
+        self.has_joint_params = any(len(c) for c in self.joint_columns.values())
+        self.has_base_params = any(g.kind == "base" and len(indices(g)) for g in self.groups)
+        self.joint_group_rows = np.array(joint_rows, dtype=int)     # ModelState.joint_key
+        self.joint_group_ids = np.array([[self.groups[i].index, self.groups[i].kind == "frame_placement"]
+                                         for i in joint_rows], dtype=float).reshape(-1, 2)
 
     def values(self, params: ParameterSet) -> np.ndarray:
         """The current values of `value_names` (one vector: placements, offsets, compliance, ...)."""
