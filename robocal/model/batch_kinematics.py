@@ -93,7 +93,7 @@ class SampleConstants:
                 self.subspace[jm.idx_v:jm.idx_v + jm.nv] = J[:, jm.idx_v:jm.idx_v + jm.nv].T
         self.regressors: dict = {}                  # joint id -> (samples, q, joint_key, regressors) of the last pass
         self.offset_map = None          # (P_offset, its twist-map rows, any non-zero) of the last layout
-        self.support: dict = {}         # joint id -> (layout, its regressor's columns that can be non-zero, GemmBlocks)
+        self.gemm_plans: dict = {}      # joint id -> (layout, its regressor's columns that can be non-zero, GemmBlocks)
         self.data = None                            # Pinocchio workspace of the batched passes
 
     def matches(self, values: np.ndarray) -> bool:
@@ -218,14 +218,15 @@ class BatchKinematics:
         tmap = self.twist_map(ms)
         parts = JointJacobianParts(n, nf, None, None)
         if self._moves_joints:
-            # offsets act through the joints' columns Ad(X_j) S_j: folded into the placement map, one GEMM
-            # serves both (regressors times a (6 n_joints, n_free) map); only the joints that support the
-            # frame have non-zero regressor columns (a branched tree: the others are skipped, same product)
+            # offsets act through the joints' columns Ad(X_j) S_j: folded into the placement map, one product
+            # serves both (regressors times a (6 n_joints, n_free) map, joint by joint: GemmBlocks); only the
+            # joints that support the frame have non-zero regressor columns (a branched tree: the others are
+            # skipped, same product)
             parent = model.frames[fid].parentJoint
-            plan = self.constants.support.get(parent)
+            plan = self.constants.gemm_plans.get(parent)
             if plan is None or plan[0] is not ms.layout:
-                plan = self.constants.support[parent] = (ms.layout, supporting_columns(model, parent),
-                                                         gemm_blocks(model, ms, parent))
+                plan = self.constants.gemm_plans[parent] = (ms.layout, supporting_columns(model, parent),
+                                                            gemm_blocks(model, ms, parent))
             _, support, parts.blocks = plan
             if len(support) == 6 * nj:
                 parts.regressors, parts.tmap = reg, tmap
