@@ -28,8 +28,7 @@ def joint_key(robot, layout, deltas: np.ndarray) -> tuple:
     for each group that moves a joint and is away from zero (exp6(0) is exactly the identity), its id, kind and
     six values. Equal keys: equal placements (the batched path keeps its regressors on it)."""
     moving = deltas[layout.joint_group_rows]
-    away = np.any(moving != 0.0, axis=1)
-    return robot, np.hstack([layout.joint_group_ids[away], moving[away]])
+    return robot, np.concatenate((layout.joint_group_ids, moving), axis=1)[np.any(moving != 0.0, axis=1)]
 
 
 class ModelState:
@@ -66,7 +65,7 @@ class ModelState:
         induced = []   # joints that hang below a calibrated frame: (joint id, moved frame, its block)
         frame_blocks = []
         deltas = np.append(values, 0.0)[layout.group_value_index]     # (groups, 6); a missing component: 0
-        self.joint_key = joint_key(robot, layout, deltas)
+        self._deltas, self._joint_key = deltas, None
         for group, delta in zip(layout.groups, deltas):    # frames first, parents before children (state_layout)
             kind = group.kind
             block = pin.Jexp6(pin.Motion(delta)) @ group.selector
@@ -116,6 +115,13 @@ class ModelState:
         elif layout.has_transmission:
             raise ValueError("transmission parameters need a robot with joint relations (screw transmissions or "
                              "couplings)")
+
+    @property
+    def joint_key(self) -> tuple:
+        """What this model's joint placements depend on (see `joint_key`), worked out on first use."""
+        if self._joint_key is None:
+            self._joint_key = joint_key(self.robot, self.layout, self._deltas)
+        return self._joint_key
 
     @property
     def data(self) -> pin.Data:
