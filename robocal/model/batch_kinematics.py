@@ -243,7 +243,8 @@ class BatchKinematics:
             cols = ms.layout.frame_columns[fid]
             parts.add(cols, (model.frames[fid].placement.toActionMatrix() @ ms.P_frame[fid])[:, cols])
         if ms.has_base_params:                 # the base's own columns only
-            parts.add(ms.base_columns, adjoint_inverse(Ri, pi) @ ms.P_base[:, ms.base_columns])
+            cols = ms.layout.base_columns
+            parts.add(cols, adjoint_inverse(Ri, pi) @ ms.P_base[:, cols])
         return parts
 
 

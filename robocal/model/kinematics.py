@@ -58,7 +58,6 @@ class ModelState:
                                                                    layout.backlash_cols)
         self.P_frame: dict[int, np.ndarray] = {}
         self.P_base = np.zeros((6, self.n_free))
-        self.base_columns: slice | np.ndarray = slice(0, 0)
         self.base = robot_base = robot.base_placement
         self._read_v_index = layout.read_v_index
         tilts = [(jid, values[slot], cols) for jid, slot, cols in layout.tilts]
@@ -85,7 +84,7 @@ class ModelState:
                     induced.append((jid, moved, block))
             else:
                 self.base = robot_base * _exp6(delta)
-                self.P_base, self.base_columns = block, group.columns
+                self.P_base = block
         for fid, block, moved_with in frame_blocks:   # every placement final: frames below carry the twist
             final = self.model.frames[fid].placement
             for gid in moved_with:

@@ -120,7 +120,8 @@ class StateLayout:
         self.joint_columns = {jid: np.unique(np.concatenate(c)) for jid, c in moving.items()}
         self.frame_columns = {gid: contiguous(np.unique(np.concatenate(c))) for gid, c in framed.items()}
         self.has_joint_params = any(len(c) for c in self.joint_columns.values())
-        self.has_base_params = any(g.kind == "base" and len(indices(g)) for g in self.groups)
+        self.base_columns = next((g.columns for g in self.groups if g.kind == "base"), slice(0, 0))
+        self.has_base_params = len(np.arange(self.n_free)[self.base_columns]) > 0
         self.joint_group_rows = np.array(joint_rows, dtype=int)     # ModelState.joint_key
         self.joint_group_ids = np.array([[self.groups[i].index, self.groups[i].kind == "frame_placement"]
                                          for i in joint_rows], dtype=float).reshape(-1, 2)
