@@ -1,7 +1,8 @@
 """How a frame's parent joint moves with the free parameters at n samples, kept as its parts.
 
 The (n, 6, n_free) Jacobian of the joint's LOCAL twist is the kinematic regressors times the twist map
-(one GEMM) plus a few additive column blocks (the frame's own placement, the base, compliance and backlash).
+(a GEMM, run joint by joint when each joint's rows reach columns of their own: GemmBlocks) plus a few
+additive column blocks (the frame's own placement, the base, compliance and backlash).
 A residual only ever needs D @ J, with D its (n, d, 6) derivative: `project` applies D to the regressors
 first ((n, d, 6) @ (n, 6, s), small) and lets the GEMM write straight into the residual's rows of the
 problem's Jacobian, so the (n, 6, n_free) array is never formed (at 10^4 samples: 26 MB written and read

@@ -21,6 +21,7 @@ from robocal.model.inverse_kinematics import damped_newton
 from robocal.model.joint_relations import Coupling
 from robocal.model.loop_rows import Closure, closure_rows
 
+
 class JointSlot(NamedTuple):
     """Where a one-dof joint sits in q and v (nq 2: a continuous joint stored as cos, sin)."""
     idx_q: int
