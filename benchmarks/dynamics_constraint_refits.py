@@ -21,7 +21,7 @@ sys.path.insert(0, str(ROOT))          # this tree's robocal, not an installed o
 import numpy as np  # noqa: E402
 
 from robocal.dynamics.consistent_fit import fit_consistent  # noqa: E402
-from robocal.dynamics.identify_run import identify_from_config  # noqa: E402
+from robocal.workflows.identify import identify_from_config  # noqa: E402
 from robocal.dynamics.inertial import parameter_vector  # noqa: E402
 
 CONFIG = ROOT / "examples/tiago_dynamics/identify.yaml"

@@ -19,12 +19,12 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import yaml  # noqa: E402
 
-from robocal.estimation.fleet.engine import dask_client  # noqa: E402
-from robocal.estimation.fleet.manifest import load_fleet  # noqa: E402
-from robocal.estimation.fleet.runner import run_fleet  # noqa: E402
-from robocal.estimation.fleet.synthetic import simulated_fleet  # noqa: E402
-from robocal.estimation.fleet.table import read_table  # noqa: E402
-from robocal.estimation.fleet.unit import calibrate_unit  # noqa: E402
+from robocal.estimation.parallel_map import dask_client  # noqa: E402
+from robocal.workflows.fleet.manifest import load_fleet  # noqa: E402
+from robocal.workflows.fleet.runner import run_fleet  # noqa: E402
+from robocal.workflows.fleet.synthetic import simulated_fleet  # noqa: E402
+from robocal.workflows.fleet.table import read_table  # noqa: E402
+from robocal.workflows.fleet.unit import calibrate_unit  # noqa: E402
 
 
 def fleet_copy(fleet_yaml: Path, out: str) -> Path:

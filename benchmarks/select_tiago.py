@@ -7,8 +7,8 @@ import time
 from pathlib import Path
 
 from robocal.estimation.calibrate import calibrate
-from robocal.estimation.evaluation import setup_for_data
-from robocal.estimation.model_selection import select_model
+from robocal.workflows.evaluate import setup_for_data
+from robocal.workflows.select import select_model
 
 CONFIG = Path(__file__).parents[1] / "examples" / "tiago_mocap" / "select_bl.yaml"
 

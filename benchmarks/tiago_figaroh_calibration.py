@@ -33,7 +33,8 @@ import numpy as np  # noqa: E402
 from cli_timing import robocal_cli_seconds  # noqa: E402
 from figaroh_env import add_options, figaroh_python, run_driver  # noqa: E402
 from robocal.estimation.calibrate import calibrate  # noqa: E402
-from robocal.estimation.evaluation import setup_for_data, term_errors  # noqa: E402
+from robocal.workflows.evaluate import setup_for_data
+from robocal.estimation.prediction_errors import term_errors  # noqa: E402
 
 MOCAP = ROOT / "examples" / "tiago_mocap"
 CONFIG = MOCAP / "full_bl.yaml"

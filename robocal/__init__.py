@@ -7,10 +7,10 @@ from robocal.errors import InputError, RobocalError
 from robocal.estimation.calibrate import CalibrationOptions, calibrate
 from robocal.estimation.problem import Problem
 from robocal.estimation.result import CalibrationResult
-from robocal.estimation.validation import evaluate_result
-from robocal.io.config import Setup, load_config
-from robocal.io.output import write_results
-from robocal.io.urdf_export import export_urdf
+from robocal.workflows.evaluate import evaluate_result
+from robocal.workflows.config import Setup, load_config
+from robocal.workflows.outputs import write_results
+from robocal.model.urdf_export import export_urdf
 from robocal.model.parameters import Parameter, ParameterSet, robot_parameters
 from robocal.model.robot import Robot, load_example, load_urdf
 from robocal.residuals import REGISTRY, Residual

@@ -8,7 +8,7 @@ import pytest
 
 from robocal import load_example
 from robocal.estimation.calibrate import calibrate
-from robocal.io.urdf_export import calibrated_urdf
+from robocal.model.urdf_export import calibrated_urdf
 from robocal.model.kinematics import ModelState
 from robocal.model.parameters import robot_parameters
 from robocal.estimation.problem import Problem

@@ -16,7 +16,8 @@ from matplotlib.image import imread
 
 from robocal.viz.report import write_report
 from robocal.viz.scene import read_scene
-from robocal.viz import RecordingWindow, SceneView
+from robocal.viz.meshcat_page import RecordingWindow
+from robocal.viz.meshcat_check import SceneView
 from test_viz_scene_data import demo_result_dir
 
 CHROMIUM = shutil.which("chromium") or ("/usr/bin/chromium" if Path("/usr/bin/chromium").exists() else None)

@@ -6,8 +6,8 @@ import pytest
 import yaml
 
 from robocal.errors import InputError
-from robocal.io.config import load_config, setup_from_config
-from robocal.io.config_keys import PYTHON_ONLY_TYPES, SCHEMA, all_key_names, check_keys
+from robocal.workflows.config import load_config, setup_from_config
+from robocal.workflows.config_keys import PYTHON_ONLY_TYPES, SCHEMA, all_key_names, check_keys
 from robocal.residuals import REGISTRY
 
 DOCS = (Path(__file__).parents[1] / "docs" / "config.md").read_text()

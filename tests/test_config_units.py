@@ -9,8 +9,8 @@ import pytest
 import yaml
 
 from robocal.cli.main import main
-from robocal.io.config import load_config, setup_from_config
-from robocal.io.data_check import spread_ratios, units_findings
+from robocal.workflows.config import load_config, setup_from_config
+from robocal.workflows.data_check import spread_ratios, units_findings
 
 ROOT = Path(__file__).parents[1]
 DEMO = ROOT / "robocal" / "io" / "demo" / "ur5_calibrate.yaml"

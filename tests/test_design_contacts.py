@@ -48,7 +48,7 @@ def test_robocal_plan_with_a_plane_block_writes_poses_on_the_plane(tmp_path):
     import yaml
     from robocal.model.kinematics import ModelState
     from robocal.model.parameters import ParameterSet
-    from robocal.design.plan import plan_from_config, write_plan
+    from robocal.workflows.plan import plan_from_config, write_plan
     cfg = {"robot": {"example": "ur5", "frames": [{"name": "probe", "parent": "tool0", "xyz": [0.01, 0.02, 0.12]}]},
            "data": {"csv": "touches.csv"},
            "parameters": {"preset": "offsets"},
@@ -70,7 +70,7 @@ def test_robocal_plan_refuses_a_contact_block_beside_others(tmp_path):
     import pytest
     import yaml
     from robocal.errors import InputError
-    from robocal.design.plan import plan_from_config
+    from robocal.workflows.plan import plan_from_config
     cfg = {"robot": {"example": "ur5"}, "data": {"csv": "x.csv"}, "parameters": {"preset": "offsets"},
            "measurements": [{"type": "plane", "frame": "tool0", "normal": [0, 0, 1], "offset": 0.05},
                             {"type": "sphere", "frame": "tool0", "centre": [0.4, 0, 0.3], "radius": 0.01}],

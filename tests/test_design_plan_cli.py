@@ -9,7 +9,7 @@ import yaml
 from robocal import load_example
 from robocal.errors import InputError
 from robocal.cli.plan import add_parser
-from robocal.design.plan import plan_from_config
+from robocal.workflows.plan import plan_from_config
 
 CONFIG = {
     "robot": {"example": "ur5"},

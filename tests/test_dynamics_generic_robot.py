@@ -7,8 +7,8 @@ import numpy as np
 from scipy.stats import chi2
 
 from robocal.dynamics.identification import base_values_of
-from robocal.dynamics.identify_report import body_mass_lines
-from robocal.dynamics.identify_run import identify_from_config
+from robocal.workflows.identify_outputs import body_mass_lines
+from robocal.workflows.identify import identify_from_config
 from robocal.dynamics.inertial import parameter_vector
 from ur5_dynamics_cases import write_ur5_log
 

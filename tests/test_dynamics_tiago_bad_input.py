@@ -4,7 +4,7 @@ import pytest
 import yaml
 
 from robocal.cli.main import main
-from robocal.dynamics.identify_run import identify_from_config
+from robocal.workflows.identify import identify_from_config
 from robocal.errors import InputError
 from tiago_dynamics_cases import JOINTS, shipped, synthetic_log
 

@@ -7,10 +7,10 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from robocal.dynamics.identify_config import velocity_index
+from robocal.workflows.identify_config import velocity_index
 from robocal.dynamics.constraint_cost import MEASURABLE_COST
-from robocal.dynamics.identify_report import summary_text
-from robocal.dynamics.identify_run import identify_from_config
+from robocal.workflows.identify_outputs import summary_text
+from robocal.workflows.identify import identify_from_config
 from robocal.dynamics.inertial import is_physically_consistent, parameter_vector
 from robocal.dynamics.regression import build_regressor
 from tiago_dynamics_cases import CONFIG, base_config

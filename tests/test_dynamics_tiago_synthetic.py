@@ -5,7 +5,7 @@ import numpy as np
 from scipy.stats import chi2
 
 from robocal.dynamics.identification import base_values_of
-from robocal.dynamics.identify_run import identify_from_config
+from robocal.workflows.identify import identify_from_config
 from robocal.dynamics.inertial import parameter_vector
 from tiago_dynamics_cases import synthetic_log
 

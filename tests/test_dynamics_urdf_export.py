@@ -8,9 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from robocal.dynamics.identify_config import reduced_model
-from robocal.dynamics.identify_report import summary_text, urdf_of, write_identification
-from robocal.dynamics.identify_run import identify_from_config
+from robocal.workflows.identify_config import reduced_model
+from robocal.workflows.identify_outputs import summary_text, urdf_of, write_identification
+from robocal.workflows.identify import identify_from_config
 from robocal.dynamics.inertial import parameter_vector
 from robocal.dynamics.urdf_inertials import identified_urdf
 from ur5_dynamics_cases import write_ur5_log

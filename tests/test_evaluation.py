@@ -5,8 +5,9 @@ import numpy as np
 import pytest
 
 from robocal.estimation.calibrate import calibrate
-from robocal.estimation.evaluation import (cross_validate, edge_folds, kfold, range_excess, point_stats, posture_groups, setup_for_data,
-                                subset_residual, term_errors)
+from robocal.estimation.cross_validation import cross_validate, edge_folds, kfold, range_excess, posture_groups
+from robocal.estimation.prediction_errors import point_stats, subset_residual, term_errors
+from robocal.workflows.evaluate import setup_for_data
 
 HERE = Path(__file__).parents[1] / "examples" / "tiago_mocap"
 CONFIG = HERE / "offsets_bl.yaml"

@@ -8,7 +8,7 @@ from lxml import etree
 
 from robocal import load_example, load_urdf
 from robocal.errors import InputError
-from robocal.io.urdf_export import calibrated_urdf, export_urdf
+from robocal.model.urdf_export import calibrated_urdf, export_urdf
 from robocal.model.kinematics import ModelState
 from robocal.model.parameters import robot_parameters
 from robocal.design.simulate import perturb, random_configurations

@@ -17,11 +17,11 @@ pytest.importorskip("pyarrow")
 
 from dask.distributed import Client, LocalCluster  # noqa: E402
 
-from robocal.estimation.fleet import runner  # noqa: E402
-from robocal.estimation.fleet.manifest import load_fleet  # noqa: E402
-from robocal.estimation.fleet.report import fleet_report  # noqa: E402
-from robocal.estimation.fleet.synthetic import simulated_fleet  # noqa: E402
-from robocal.estimation.fleet.table import read_table  # noqa: E402
+from robocal.workflows.fleet import runner  # noqa: E402
+from robocal.workflows.fleet.manifest import load_fleet  # noqa: E402
+from robocal.workflows.fleet.report import fleet_report  # noqa: E402
+from robocal.workflows.fleet.synthetic import simulated_fleet  # noqa: E402
+from robocal.workflows.fleet.table import read_table  # noqa: E402
 
 N_UNITS, BROKEN, SHUFFLED, FAR = 20, 3, 7, 11
 FAR_VALUE = 0.02   # rad; the fleet's perturbation is uniform in +-0.0035 rad
@@ -127,7 +127,7 @@ def test_killing_a_worker_during_a_run_loses_no_unit(cluster, fleet, monkeypatch
 
 
 def test_plan_curve_on_the_cluster_equals_the_serial_run(cluster, tmp_path):
-    from robocal.design.plan import plan_from_config, prediction_dict
+    from robocal.workflows.plan import plan_from_config, prediction_dict
 
     config = {"robot": {"example": "ur5"}, "data": {"csv": "not_measured_yet.csv"},
               "parameters": {"preset": "full", "frames": {"tool0": True}, "base": True},

@@ -6,11 +6,11 @@ import yaml
 pytest.importorskip("pyarrow")   # the [fleet] extra; the [test] extra installs it (never skipped in CI)
 
 from robocal.errors import InputError  # noqa: E402
-from robocal.estimation.fleet.engine import map_tasks  # noqa: E402
-from robocal.estimation.fleet.manifest import load_fleet  # noqa: E402
-from robocal.estimation.fleet.report import fleet_report, summary_lines  # noqa: E402
-from robocal.estimation.fleet.table import FleetTable, read_table, write_table  # noqa: E402
-from robocal.estimation.fleet.unit import FINAL_STATUSES, calibrate_unit, unit_config  # noqa: E402
+from robocal.estimation.parallel_map import map_tasks  # noqa: E402
+from robocal.workflows.fleet.manifest import load_fleet  # noqa: E402
+from robocal.workflows.fleet.report import fleet_report, summary_lines  # noqa: E402
+from robocal.workflows.fleet.table import FleetTable, read_table, write_table  # noqa: E402
+from robocal.workflows.fleet.unit import FINAL_STATUSES, calibrate_unit, unit_config  # noqa: E402
 
 
 def write_fleet(tmp_path, manifest: str, **extra):
@@ -116,7 +116,7 @@ def test_map_tasks_in_process_keeps_the_order():
 
 def test_fleet_page(tmp_path):
     pytest.importorskip("matplotlib")
-    from robocal.estimation.fleet.page import fleet_page
+    from robocal.workflows.fleet.page import fleet_page
 
     rows = fleet_rows(np.random.default_rng(5))
     rows[4]["est:q"] = 0.012

@@ -14,7 +14,7 @@ import pytest
 import robocal
 from robocal.estimation.calibrate import calibrate
 from robocal.errors import InputError
-from robocal.io.urdf_export import calibrated_urdf
+from robocal.model.urdf_export import calibrated_urdf
 from robocal.systems.floating_nut.calibration import choose_thread_hands, floating_nut_parameters, uncompensated_robot
 from robocal.model.kinematics import ModelState
 from robocal.systems.floating_nut.geometry import reference_fixture, rotation_matrices

@@ -12,7 +12,7 @@ from robocal.io.tables import write_csv
 from robocal.errors import InputError
 from robocal.estimation.iso9283 import iso9283_figures, pose6
 from robocal.cli.iso9283 import add_parser, cmd_iso9283
-from robocal.estimation.iso9283_run import iso9283_from_config
+from robocal.workflows.iso9283 import iso9283_from_config
 from robocal.model.kinematics import ModelState
 from robocal.model.parameters import robot_parameters
 from robocal.design.simulate import perturb, random_configurations

@@ -9,7 +9,7 @@ import pinocchio as pin
 import pytest
 
 from robocal import load_example
-from robocal.io.urdf_export import calibrated_urdf
+from robocal.model.urdf_export import calibrated_urdf
 from robocal.model.kinematics import ModelState
 from robocal.model.parameters import robot_parameters
 from robocal.estimation.problem import Problem

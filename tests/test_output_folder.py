@@ -6,7 +6,7 @@ import pytest
 
 from robocal.cli.main import main
 from robocal.errors import InputError
-from robocal.io.output import MANIFEST, add_to_manifest, write_folder
+from robocal.io.output_folder import MANIFEST, add_to_manifest, write_folder
 
 DEMO = Path(__file__).parents[1] / "robocal" / "io" / "demo" / "ur5_calibrate.yaml"
 

@@ -5,8 +5,8 @@ from pathlib import Path
 
 import pytest
 
-PACKAGES = ["robocal", "robocal.model", "robocal.residuals", "robocal.estimation", "robocal.estimation.fleet",
-            "robocal.design", "robocal.io",
+PACKAGES = ["robocal", "robocal.model", "robocal.residuals", "robocal.estimation", "robocal.workflows.fleet",
+            "robocal.design", "robocal.io", "robocal.workflows",
             "robocal.systems.stewart", "robocal.systems.laser_psd", "robocal.systems.floating_nut",
             "robocal.systems.pcmm", "robocal.dynamics", "robocal.viz", "robocal.testing"]
 API_PAGE = (Path(__file__).resolve().parents[1] / "docs" / "api.md").read_text(encoding="utf-8")

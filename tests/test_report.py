@@ -83,6 +83,6 @@ def test_view_html_writes_a_page_for_the_chosen_sample(tmp_path):
 
 def test_scene_page_is_deterministic():
     """Same data, same bytes: meshcat's random object ids are replaced by ids derived from the node path."""
-    from robocal.viz import SceneView
+    from robocal.viz.meshcat_check import SceneView
     pages = [SceneView(all_types_scene(), meshes=False).static_html() for _ in range(2)]
     assert pages[0] == pages[1]

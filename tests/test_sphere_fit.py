@@ -4,7 +4,7 @@ import pytest
 
 from robocal.errors import InputError
 from robocal.systems.pcmm.machine import cap_directions
-from robocal.estimation.sphere_fit import fit_sphere, sphere_fit_sensitivity
+from robocal.residuals.sphere_fit import fit_sphere, sphere_fit_sensitivity
 
 C0, R0 = np.array([0.1, -0.2, -0.6]), 0.0137
 

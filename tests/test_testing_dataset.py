@@ -4,8 +4,8 @@ from importlib.resources import files
 import pytest
 
 from robocal.estimation.calibrate import calibrate
-from robocal.io.config import load_config
-from robocal.io.urdf_export import export_urdf
+from robocal.workflows.config import load_config
+from robocal.model.urdf_export import export_urdf
 from robocal.testing import assert_reproduces_dataset
 
 DEMO = files("robocal.io") / "demo" / "ur5_calibrate.yaml"

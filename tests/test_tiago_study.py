@@ -12,7 +12,9 @@ import numpy as np
 import pytest
 
 from robocal.estimation.calibrate import calibrate
-from robocal.estimation.evaluation import posture_groups, setup_for_data, term_errors
+from robocal.estimation.cross_validation import posture_groups
+from robocal.workflows.evaluate import setup_for_data
+from robocal.estimation.prediction_errors import term_errors
 
 HERE = Path(__file__).parents[1] / "examples" / "tiago_mocap"
 VALIDATION = HERE / "data" / "qualisys_2021-11-26_static_postures.csv"

@@ -9,10 +9,11 @@ import pytest
 from robocal.cli.main import main
 from robocal.errors import InputError
 from robocal.estimation.calibrate import calibrate
-from robocal.estimation.evaluation import setup_for_data
-from robocal.estimation.model_selection import select_model
+from robocal.workflows.evaluate import setup_for_data
+from robocal.workflows.select import select_model
 from robocal.estimation.physical_scale import BEYOND, physical_scales
-from robocal.estimation.validation import cv_table, group_folds
+from robocal.estimation.cross_validation import cv_table
+from robocal.workflows.cv import group_folds
 from robocal.model.kinematics import ModelState
 from validation_cases import JOINTS, SIGMA, write_case
 

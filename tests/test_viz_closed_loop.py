@@ -9,7 +9,7 @@ from robocal.estimation.problem import Problem
 from robocal.residuals import PoseResidual
 from robocal.viz.scene import scene_bytes
 from robocal.design.simulate import perturb, simulate_measurements
-from robocal.viz import SceneView
+from robocal.viz.meshcat_check import SceneView
 from test_loop_sensitivities import stewart_problem
 
 

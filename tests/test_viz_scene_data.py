@@ -72,8 +72,8 @@ atexit.register(shutil.rmtree, _TMP, True)
 @lru_cache(maxsize=1)
 def demo_result_dir() -> Path:
     """The output folder of the demo config (UR5, 60 tracker poses), with scene.json, as `robocal calibrate` will write it."""
-    from robocal.io.config import load_config
-    from robocal.io.output import write_results
+    from robocal.workflows.config import load_config
+    from robocal.workflows.outputs import write_results
 
     setup = load_config(files("robocal.io") / "demo" / "ur5_calibrate.yaml")
     before = setup.problem.params.copy()
@@ -178,7 +178,7 @@ def test_scene_data_is_deterministic():
 
 def test_version_1_scene_files_still_open(tmp_path):
     """A scene written before the skeleton and `terms` existed reads, draws and steps."""
-    from robocal.viz import SceneView
+    from robocal.viz.meshcat_check import SceneView
     old = json.loads(json.dumps(all_types_scene()))
     old["version"] = 1
     del old["robot"]["skeleton"]

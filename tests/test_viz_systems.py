@@ -9,7 +9,7 @@ import numpy as np
 
 from robocal import load_urdf
 from robocal.estimation.calibrate import calibrate
-from robocal.io.config import load_config
+from robocal.workflows.config import load_config
 from robocal.systems.laser_psd.calibration import calibrate_laser, zero_offset_problem
 from robocal.systems.pcmm import error_model as pe
 from robocal.systems.pcmm.machine import (reference_artefact, reference_geometry, reference_placements, reference_raw,
@@ -21,7 +21,7 @@ from robocal.residuals import PoseResidual
 from robocal.viz.scene import read_scene, scene_bytes
 from robocal.systems.pcmm.scene import write_pcmm_scene
 from robocal.design.simulate import perturb, simulate_measurements
-from robocal.viz import SceneView
+from robocal.viz.meshcat_check import SceneView
 from robocal.viz.shapes import se3_from_pose7
 
 import laser_psd_cases as lc

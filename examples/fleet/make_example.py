@@ -10,7 +10,7 @@ out of step with its joint readings (the fit fails), U009 has a true elbow offse
 """
 import sys
 
-from robocal.estimation.fleet import simulated_fleet
+from robocal.workflows.fleet import simulated_fleet
 
 if __name__ == "__main__":
     folder = sys.argv[1] if len(sys.argv) > 1 else "fleet-example"

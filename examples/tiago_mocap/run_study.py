@@ -28,7 +28,8 @@ import numpy as np
 
 from robocal import calibrate
 from robocal.estimation import (RANGE_MARGIN, cross_validate, edge_folds, kfold, posture_groups, range_excess,
-                                setup_for_data, term_errors)
+                                term_errors)
+from robocal.workflows import setup_for_data
 
 HERE = Path(__file__).resolve().parent
 VALIDATION = HERE / "data" / "qualisys_2021-11-26_static_postures.csv"

@@ -7,10 +7,11 @@ from importlib.resources import files
 from pathlib import Path
 
 from robocal.estimation.calibrate import calibrate
-from robocal.estimation.iso9283_run import iso9283_run, iso9283_section
-from robocal.io.config import load_config
-from robocal.io.data_check import nominal_states, units_findings
-from robocal.io.output import check_replaceable, write_results
+from robocal.workflows.iso9283 import iso9283_run, iso9283_section
+from robocal.workflows.config import load_config
+from robocal.workflows.data_check import nominal_states, units_findings
+from robocal.io.output_folder import check_replaceable
+from robocal.workflows.outputs import write_results
 from robocal.viz.scene import scene_bytes, scene_note
 from robocal.io.wording import plural
 

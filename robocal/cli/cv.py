@@ -1,8 +1,9 @@
 """`robocal cv CONFIG [--folds K | --loo] [--group COLUMN]`: cross-validate a calibration (docs/validation.md)."""
 from __future__ import annotations
 
-from robocal.estimation.validation import cv_table, make_folds
-from robocal.io.config import load_config
+from robocal.estimation.cross_validation import cv_table
+from robocal.workflows.cv import make_folds
+from robocal.workflows.config import load_config
 
 
 def cmd_cv(args) -> int:

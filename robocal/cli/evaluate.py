@@ -6,8 +6,8 @@ import sys
 from pathlib import Path
 
 from robocal.errors import InputError
-from robocal.estimation.validation import evaluate_result
-from robocal.io.output import write_folder
+from robocal.workflows.evaluate import evaluate_result
+from robocal.io.output_folder import write_folder
 
 
 def cmd_evaluate(args) -> int:

@@ -1,12 +1,12 @@
 """`robocal fleet run FLEET.yaml` and `robocal fleet report TABLE`: the command line of
-robocal.estimation.fleet (parsing and printing only). See docs/fleet.md."""
+robocal.workflows.fleet (parsing and printing only). See docs/fleet.md."""
 from __future__ import annotations
 
 import logging
 import sys
 from pathlib import Path
 
-from robocal.estimation.fleet.report import DEFAULT_THRESHOLD, fleet_report, summary_lines
+from robocal.workflows.fleet.report import DEFAULT_THRESHOLD, fleet_report, summary_lines
 from robocal.io.text_files import write_atomic
 
 
@@ -19,7 +19,7 @@ def _progress(done: int, total: int, row: dict) -> None:
 
 def cmd_run(args) -> int:
     import distributed   # optional [fleet] extra; imported here first so that its INFO chatter can be quieted
-    from robocal.estimation.fleet.runner import run_fleet   # dask and pyarrow: the optional [fleet] extra
+    from robocal.workflows.fleet.runner import run_fleet   # dask and pyarrow: the optional [fleet] extra
 
     if not args.verbose:
         logging.getLogger(distributed.__name__).setLevel(logging.WARNING)
@@ -37,13 +37,13 @@ def cmd_run(args) -> int:
 
 
 def cmd_report(args) -> int:
-    from robocal.estimation.fleet.table import read_table   # pyarrow: the optional [fleet] extra
+    from robocal.workflows.fleet.table import read_table   # pyarrow: the optional [fleet] extra
 
     rep = fleet_report(read_table(args.table), threshold=args.threshold)
     print("\n".join(summary_lines(rep)))
     out = Path(args.output) if args.output else Path(args.table).with_suffix(".html")
     try:
-        from robocal.estimation.fleet.page import fleet_page   # matplotlib: the optional [viz] extra
+        from robocal.workflows.fleet.page import fleet_page   # matplotlib: the optional [viz] extra
     except ImportError as exc:
         print(f"robocal: no HTML page ({exc.name} is not installed: pip install 'robocal[viz]')", file=sys.stderr)
         return 0

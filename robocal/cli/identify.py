@@ -1,4 +1,4 @@
-"""`robocal identify dyn.yaml`: dynamic identification from a joint log (robocal.dynamics.identify_run)."""
+"""`robocal identify dyn.yaml`: dynamic identification from a joint log (robocal.workflows.identify)."""
 from __future__ import annotations
 
 from robocal.errors import InputError
@@ -9,8 +9,8 @@ def cmd_identify(args) -> int:
     for bad input (the error propagates to cli.main, which prints it and exits 2)."""
     # imported here: the dynamics stack (scipy.signal, scipy.stats) costs ~0.4 s of start-up that every
     # other command would pay
-    from robocal.dynamics.identify_report import write_identification
-    from robocal.dynamics.identify_run import identify_from_config
+    from robocal.workflows.identify_outputs import write_identification
+    from robocal.workflows.identify import identify_from_config
     res = identify_from_config(args.config)
     target = args.output if args.output is not None else res.config.output
     if target is None:

@@ -1,4 +1,4 @@
-"""`robocal iso9283 CONFIG`: the command line of robocal.estimation.iso9283_run (parsing and printing only)."""
+"""`robocal iso9283 CONFIG`: the command line of robocal.workflows.iso9283 (parsing and printing only)."""
 from __future__ import annotations
 
 import json
@@ -8,8 +8,8 @@ from pathlib import Path
 from robocal.errors import InputError
 from robocal.estimation.iso9283 import summary
 from robocal.cli.calibrate import check_data
-from robocal.estimation.iso9283_run import iso9283_from_setup, iso9283_section
-from robocal.io.config import load_config
+from robocal.workflows.iso9283 import iso9283_from_setup, iso9283_section
+from robocal.workflows.config import load_config
 from robocal.io.text_files import write_atomic
 
 

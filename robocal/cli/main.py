@@ -13,7 +13,7 @@ import numpy as np
 
 from robocal.cli import calibrate, cv, evaluate, fleet, identify, iso9283, plan, select, simulate, view
 from robocal.errors import RobocalError
-from robocal.io.output import robocal_version
+from robocal.io.output_folder import robocal_version
 
 COMMANDS = (calibrate, simulate, plan, iso9283, view, evaluate, cv, select, identify, fleet)
 

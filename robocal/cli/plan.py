@@ -1,10 +1,10 @@
-"""`robocal plan CONFIG`: the command line of robocal.design.plan (parsing and printing only)."""
+"""`robocal plan CONFIG`: the command line of robocal.workflows.plan (parsing and printing only)."""
 from __future__ import annotations
 
 import sys
 
-from robocal.design.plan import plan_from_config, summary, write_plan
-from robocal.io.output import check_replaceable
+from robocal.workflows.plan import plan_from_config, summary, write_plan
+from robocal.io.output_folder import check_replaceable
 
 
 def cmd_plan(args) -> int:

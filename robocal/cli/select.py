@@ -8,9 +8,10 @@ from pathlib import Path
 
 from robocal.cli.cv import add_fold_arguments
 from robocal.estimation.calibrate import calibrate
-from robocal.estimation.evaluation import portable_config, setup_for_data
-from robocal.estimation.model_selection import select_model
-from robocal.io.output import check_replaceable, write_results
+from robocal.workflows.evaluate import portable_config, setup_for_data
+from robocal.workflows.select import select_model
+from robocal.io.output_folder import check_replaceable
+from robocal.workflows.outputs import write_results
 from robocal.viz.scene import scene_bytes, scene_note
 
 def cmd_select(args) -> int:

@@ -1,7 +1,7 @@
 """`robocal simulate CONFIG`: a synthetic dataset and its truth from the config's `simulation:` section."""
 from __future__ import annotations
 
-from robocal.design.dataset import simulate_dataset
+from robocal.workflows.simulate import simulate_dataset
 
 
 def cmd_simulate(args) -> int:

@@ -10,7 +10,7 @@ import webbrowser
 from pathlib import Path
 
 from robocal.errors import InputError
-from robocal.io.output import add_to_manifest
+from robocal.io.output_folder import add_to_manifest
 from robocal.viz.scene import read_scene
 
 

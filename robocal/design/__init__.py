@@ -1,8 +1,9 @@
 """Before measuring: which poses to measure, the accuracy to expect, and simulated data with a known truth."""
-from robocal.io.lazy_exports import lazy_exports
+from robocal.design.candidates import MeasurementVolume, filter_candidates, random_candidates
+from robocal.design.prediction import pose_jacobians, predict_parameters, predict_pose_accuracy
+from robocal.design.selection import DesignMatrix, PoseSelection, select_poses
+from robocal.design.simulate import perturb, random_configurations, simulate_measurements
 
-__getattr__, __all__ = lazy_exports(__name__, {
-    "selection": "DesignMatrix PoseSelection select_poses",
-    "candidates": "filter_candidates MeasurementVolume random_candidates",
-    "simulate": "perturb random_configurations simulate_measurements", "plan": "Plan plan_from_config write_plan",
-    "prediction": "pose_jacobians predict_parameters predict_pose_accuracy", "dataset": "simulate_dataset"})
+__all__ = ["MeasurementVolume", "filter_candidates", "random_candidates", "pose_jacobians", "predict_parameters",
+           "predict_pose_accuracy", "DesignMatrix", "PoseSelection", "select_poses", "perturb",
+           "random_configurations", "simulate_measurements"]

@@ -1,13 +1,20 @@
-"""Fitting: the stacked problem, the solver, identifiability, the result, and validation of a fitted model.
+"""Fitting: the stacked problem, the solver, identifiability, the result, held-out errors and model selection,
+ISO 9283 figures, and the general parallel map.
 
-The fit itself is `robocal.calibrate` (a name here would be shadowed by the module robocal.estimation.calibrate).
+The fit itself is `robocal.calibrate` (a name here would be shadowed by the module robocal.estimation.calibrate)."""
+from robocal.estimation.calibrate import CalibrationOptions
+from robocal.estimation.cross_validation import (RANGE_MARGIN, CVTable, CrossValidation, cross_validate, cv_table,
+                                                 edge_folds, kfold, posture_groups, range_excess)
+from robocal.estimation.identifiability import BaseSelection, covariance, select_base_parameters
+from robocal.estimation.iso9283 import iso9283_figures
+from robocal.estimation.model_selection import Rung, Selection, ladder, one_standard_error
+from robocal.estimation.parallel_map import map_tasks, monte_carlo
+from robocal.estimation.problem import Problem
+from robocal.estimation.result import CalibrationResult
+from robocal.estimation.prediction_errors import BlockErrors, PointStats, norm_errors, point_stats, term_errors
 
-The fleet layer (`robocal.estimation.fleet`, the [fleet] extra) is imported on its own."""
-from robocal.io.lazy_exports import lazy_exports
-
-__getattr__, __all__ = lazy_exports(__name__, {
-    "identifiability": "BaseSelection covariance select_base_parameters",
-    "calibrate": "CalibrationOptions", "result": "CalibrationResult",
-    "evaluation": "cross_validate edge_folds kfold posture_groups range_excess RANGE_MARGIN setup_for_data term_errors",
-    "validation": "cv_table evaluate_result", "iso9283": "iso9283_figures", "problem": "Problem",
-    "model_selection": "select_model"})
+__all__ = ["CalibrationOptions", "RANGE_MARGIN", "CVTable", "CrossValidation", "cross_validate", "cv_table",
+           "edge_folds", "kfold", "posture_groups", "range_excess", "BaseSelection", "covariance",
+           "select_base_parameters", "iso9283_figures", "Rung", "Selection", "ladder", "one_standard_error",
+           "map_tasks", "monte_carlo", "Problem", "CalibrationResult", "BlockErrors", "PointStats", "norm_errors",
+           "point_stats", "term_errors"]

@@ -1,7 +1,9 @@
-"""Files in and out: the config, CSV tables, the calibrated URDF, output folders, number formatting."""
-from robocal.io.lazy_exports import lazy_exports
+"""Files on disk, knowing no robot: CSV tables, YAML and text files, number formatting, output folders
+written whole with a manifest."""
+from robocal.io.output_folder import check_replaceable, write_folder
+from robocal.io.tables import Table, read_csv, write_csv
+from robocal.io.text_files import format_number, format_numbers, write_atomic
+from robocal.io.yaml_files import read_yaml
 
-__getattr__, __all__ = lazy_exports(__name__, {
-    "urdf_export": "calibrated_urdf export_urdf", "text_files": "format_number format_numbers write_atomic",
-    "config": "load_config Setup setup_from_config", "tables": "read_csv Table write_csv",
-    "output": "write_results"})
+__all__ = ["check_replaceable", "write_folder", "Table", "read_csv", "write_csv", "format_number", "format_numbers",
+           "write_atomic", "read_yaml"]

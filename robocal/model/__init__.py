@@ -1,7 +1,12 @@
-"""The robot model: URDF loading, named parameters, kinematics at a parameter vector, closed chains."""
-from robocal.io.lazy_exports import lazy_exports
+"""The robot model: URDF in and out, named parameters, kinematics at a parameter vector, closed chains, IK."""
+from robocal.model.dh_urdf import DHRow, write_dh_urdf
+from robocal.model.inverse_kinematics import IKFailure, frame_ik, reading_ik
+from robocal.model.kinematics import ModelState, SampleState
+from robocal.model.loops import LoopSet, assemble
+from robocal.model.parameters import Parameter, ParameterSet, robot_parameters
+from robocal.model.robot import Robot, load_example, load_urdf
+from robocal.model.urdf_export import calibrated_urdf, export_urdf
 
-__getattr__, __all__ = lazy_exports(__name__, {
-    "loops": "assemble LoopSet", "dh_urdf": "DHRow write_dh_urdf",
-    "inverse_kinematics": "frame_ik IKFailure reading_ik", "robot": "load_example load_urdf Robot",
-    "kinematics": "ModelState SampleState", "parameters": "Parameter ParameterSet robot_parameters"})
+__all__ = ["DHRow", "write_dh_urdf", "IKFailure", "frame_ik", "reading_ik", "ModelState", "SampleState", "LoopSet",
+           "assemble", "Parameter", "ParameterSet", "robot_parameters", "Robot", "load_example", "load_urdf",
+           "calibrated_urdf", "export_urdf"]

@@ -1,7 +1,7 @@
 """A multi-sphere artefact probed by a touch probe: sphere-centre distances and sphere radii.
 
 One term = one placement of the artefact. It owns the probe hits (samples) on each of its S spheres,
-fits a sphere to each sphere's tip-centre points (geometric least squares, robocal.estimation.sphere_fit) and
+fits a sphere to each sphere's tip-centre points (geometric least squares, robocal.residuals.sphere_fit) and
 returns S(S-1)/2 + S rows:
 
     distance rows (j < m, lexicographic)  |c_j - c_m| - D_ref[j, m]
@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from robocal.errors import InputError
-from robocal.estimation.sphere_fit import fit_sphere, sphere_fit_sensitivity
+from robocal.residuals.sphere_fit import fit_sphere, sphere_fit_sensitivity
 from robocal.residuals.base import Aux, Residual, Term, point_jacobian
 
 

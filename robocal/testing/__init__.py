@@ -5,7 +5,7 @@ from robocal.testing.assertions import (SyntheticCase, assert_calibration_recove
                                         assert_same_text_and_numbers,
                                         assert_urdf_loads, dataset_setup, finite_difference_jacobian, load_robot,
                                         synthetic_pose_case)
-from robocal.estimation.fleet.seeded import monte_carlo
+from robocal.estimation.parallel_map import monte_carlo
 
 __all__ = ["SyntheticCase", "assert_calibration_recovers", "assert_frame_jacobians", "assert_jacobian_matches_fd",
            "assert_problem_jacobian", "assert_reproduces_dataset", "assert_same_text_and_numbers",

@@ -21,7 +21,7 @@ import pinocchio as pin
 from scipy import stats
 
 from robocal.design.simulate import perturb, random_configurations, simulate_measurements
-from robocal.io.config import read_yaml, setup_from_config
+from robocal.workflows.config import load_config
 from robocal.errors import InputError, RobocalError
 from robocal.estimation.calibrate import CalibrationOptions, calibrate
 from robocal.estimation.identifiability import select_base_parameters
@@ -254,12 +254,7 @@ def dataset_setup(config, urdf=None):
 
     Sections the setup does not use (simulation, plan, iso9283) are checked for misspelt keys only.
     """
-    path = Path(config).resolve()
-    raw = read_yaml(path)
-    if urdf is not None and isinstance(raw, dict):
-        robot_cfg = {k: v for k, v in (raw.get("robot") or {}).items() if k not in ("urdf", "example")}
-        raw = {**raw, "robot": {**robot_cfg, "urdf": str(Path(urdf).resolve())}}
-    return setup_from_config(raw, path.parent, str(path))
+    return load_config(config, urdf)
 
 
 def assert_reproduces_dataset(config, urdf=None, rms=None, max=None, blocks: dict | None = None,

@@ -32,7 +32,7 @@ def parameter_spread(names, z, flagged, threshold, path, title="Every parameter 
 
 
 def drift_histories(drifts, path, title="Largest drifts: estimate +-1 standard error over time (SI units)"):
-    """One panel per Drift (robocal.estimation.fleet.report): its unit's estimates against the date."""
+    """One panel per Drift (robocal.workflows.fleet.report): its unit's estimates against the date."""
     n = len(drifts)
     cols = min(n, 2)
     rows = (n + cols - 1) // cols

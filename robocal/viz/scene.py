@@ -29,11 +29,11 @@ from robocal.io.wording import plural
 from robocal.model.batch_kinematics import BatchKinematics, supports_batch
 from robocal.model.kinematics import ModelState
 from robocal.model.lie_arrays import quaternions
-from robocal.estimation.evaluation import subset_residual
+from robocal.estimation.prediction_errors import subset_residual
 from robocal.estimation.problem import LazyStates
 from robocal.residuals.base import tilted_direction
 from robocal.viz.skeleton_layout import skeleton, skeleton_from_links
-from robocal.estimation.sphere_fit import fit_sphere
+from robocal.residuals.sphere_fit import fit_sphere
 
 log = logging.getLogger(__name__)
 

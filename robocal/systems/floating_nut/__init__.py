@@ -1,7 +1,9 @@
 """The rod-end-floating hexapod: geometry, compensated IK and Newton FK, URDF with screw transmissions, calibration
 (docs/floating_nut_hexapod.md)."""
-from robocal.io.lazy_exports import lazy_exports
+from robocal.systems.floating_nut.calibration import floating_nut_parameters, uncompensated_robot
+from robocal.systems.floating_nut.geometry import reference_fixture
+from robocal.systems.floating_nut.kinematics import FloatingNutKinematics
+from robocal.systems.floating_nut.urdf import write_urdf
 
-__getattr__, __all__ = lazy_exports(__name__, {
-    "calibration": "floating_nut_parameters uncompensated_robot", "kinematics": "FloatingNutKinematics",
-    "geometry": "reference_fixture", "urdf": "write_urdf"})
+__all__ = ["floating_nut_parameters", "uncompensated_robot", "reference_fixture", "FloatingNutKinematics",
+           "write_urdf"]

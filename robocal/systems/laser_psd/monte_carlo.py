@@ -4,7 +4,7 @@ Noise model (the spec's simulator): every single joint read carries Gaussian noi
 (rad, every joint); a pose's reading is the mean of `n_reads` such reads, so it carries sigma_read /
 sqrt(n_reads). The statistic reported is the RMS of the estimation error over the trials, per offset,
 next to the linearised prediction (reading_noise_covariance) of the same quantity. Trial k draws its
-noise from its own seed (robocal.estimation.fleet.seeded), so the study runs the same on a Dask cluster.
+noise from its own seed (robocal.estimation.parallel_map), so the study runs the same on a Dask cluster.
 """
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ import pinocchio as pin
 
 from robocal.errors import InputError, RobocalError
 from robocal.estimation.calibrate import CalibrationOptions, calibrate
-from robocal.estimation.fleet.seeded import monte_carlo
+from robocal.estimation.parallel_map import monte_carlo
 from robocal.estimation.problem import Problem
 from robocal.model.kinematics import ModelState
 from robocal.residuals.base import basis_from_normal

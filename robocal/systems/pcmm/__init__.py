@@ -1,9 +1,13 @@
 """The 4-PUU parallel CMM: reference machine, closed-form kinematics, error model, self-calibration from a sphere
 artefact, compensation (docs/pcmm_calibration.md)."""
-from robocal.io.lazy_exports import lazy_exports
+from robocal.systems.pcmm.calibration import calibrate_pcmm, effective_rank, machine_jacobian, measurement_rows
+from robocal.systems.pcmm.compensation import first_order_pose_correction, validate
+from robocal.systems.pcmm.kinematics import (forward_kinematics, inverse_kinematics, random_workspace_poses,
+                                             reduced_names, tip_points)
+from robocal.systems.pcmm.machine import (reference_artefact, reference_geometry, reference_placements,
+                                          reference_raw, simulate_probing)
 
-__getattr__, __all__ = lazy_exports(__name__, {
-    "calibration": "calibrate_pcmm effective_rank machine_jacobian measurement_rows",
-    "compensation": "first_order_pose_correction validate",
-    "kinematics": "forward_kinematics inverse_kinematics random_workspace_poses reduced_names tip_points",
-    "machine": "reference_artefact reference_geometry reference_placements reference_raw simulate_probing"})
+__all__ = ["calibrate_pcmm", "effective_rank", "machine_jacobian", "measurement_rows", "first_order_pose_correction",
+           "validate", "forward_kinematics", "inverse_kinematics", "random_workspace_poses", "reduced_names",
+           "tip_points", "reference_artefact", "reference_geometry", "reference_placements", "reference_raw",
+           "simulate_probing"]

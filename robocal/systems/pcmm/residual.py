@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from robocal.estimation.sphere_fit import fit_sphere
+from robocal.residuals.sphere_fit import fit_sphere
 from robocal.model.parameters import Parameter
 from robocal.residuals.base import Term
 from robocal.residuals.sphere_artefact import SphereArtefactResidual, artefact_rows

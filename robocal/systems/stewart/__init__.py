@@ -1,6 +1,5 @@
 """Stewart (6-UPS) platforms: geometry, closed-form IK and Newton FK, URDF, the five measuring modes and their
 calibration (docs/stewart_calibration.md)."""
-from robocal.io.lazy_exports import lazy_exports
+from robocal.systems.stewart.mode_study import BALLS, BAR_BASES, HOLES, PLANES, ModeStudy, fit_machines, mix
 
-__getattr__, __all__ = lazy_exports(__name__, {
-    "mode_study": "BALLS BAR_BASES HOLES fit_machines mix ModeStudy PLANES"})
+__all__ = ["BALLS", "BAR_BASES", "HOLES", "PLANES", "ModeStudy", "fit_machines", "mix"]

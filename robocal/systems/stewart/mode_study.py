@@ -6,7 +6,7 @@ records the struts the true machine reads there, with the platform turned up to 
 on positions, contact distances and ball-bar readings, `sig_a` on angles. The statistic is the spec's:
 the largest tool-tip error over fresh validation poses after the fit. Used by
 examples/stewart_calibration.py and benchmarks/stewart_calibration.py. Machine k of a study draws from
-its own seed (robocal.estimation.fleet.seeded), so `fit_machines` gives the same figures in this process
+its own seed (robocal.estimation.parallel_map), so `fit_machines` gives the same figures in this process
 and on a Dask cluster (docs/fleet.md).
 """
 from __future__ import annotations
@@ -17,7 +17,7 @@ from typing import Callable
 import numpy as np
 
 from robocal.estimation.calibrate import calibrate
-from robocal.estimation.fleet.seeded import monte_carlo
+from robocal.estimation.parallel_map import monte_carlo
 from robocal.estimation.problem import Problem
 from robocal.systems.stewart import calibration as sc
 from robocal.systems.stewart import modes as sm

@@ -27,8 +27,8 @@ import pinocchio as pin
 from robocal.errors import InputError
 from robocal.estimation.calibrate import calibrate
 from robocal.estimation.iso9283 import Iso9283Figures, group_visits, iso9283_figures, model_attained, pose6
-from robocal.io.config import load_config
-from robocal.io.config_keys import Cfg
+from robocal.workflows.config import load_config
+from robocal.workflows.config_keys import Cfg
 from robocal.model.kinematics import ModelState
 
 

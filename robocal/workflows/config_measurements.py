@@ -11,7 +11,7 @@ import re
 
 import numpy as np
 
-from robocal.io.config_keys import FILLED_BY_CONFIG, PYTHON_ONLY_TYPES, Cfg
+from robocal.workflows.config_keys import FILLED_BY_CONFIG, PYTHON_ONLY_TYPES, Cfg
 from robocal.io.tables import ANGLE_UNITS, LENGTH_UNITS, Table
 from robocal.residuals import REGISTRY
 

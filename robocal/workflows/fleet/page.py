@@ -6,7 +6,7 @@ import html
 
 import numpy as np
 
-from robocal.estimation.fleet.report import FleetReport
+from robocal.workflows.fleet.report import FleetReport
 
 MAX_DRIFT_PANELS = 6
 

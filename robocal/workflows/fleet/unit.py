@@ -14,9 +14,9 @@ import numpy as np
 
 from robocal.errors import InputError, RobocalError
 from robocal.estimation.calibrate import calibrate
-from robocal.estimation.fleet.manifest import UnitJob
-from robocal.io.config import Setup, setup_from_config
-from robocal.io.output import write_results
+from robocal.workflows.fleet.manifest import UnitJob
+from robocal.workflows.config import Setup, setup_from_config
+from robocal.workflows.outputs import write_results
 from robocal.viz.scene import scene_bytes
 
 #: statuses whose row is final: a re-run with the same inputs and config skips the unit

@@ -23,8 +23,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from robocal.errors import InputError
-from robocal.io.config import Cfg, read_yaml
-from robocal.io.config_keys import check_keys
+from robocal.workflows.config import Cfg, read_yaml
+from robocal.workflows.config_keys import check_keys
 
 FLEET_KEYS = ("config", "units", "output", "accept")
 MANIFEST_COLUMNS = ("unit", "data", "urdf", "serial", "date", "site")

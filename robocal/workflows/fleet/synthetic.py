@@ -20,9 +20,9 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from robocal.design.dataset import simulate_dataset
+from robocal.workflows.simulate import simulate_dataset
 from robocal.estimation.calibrate import calibrate
-from robocal.io.config import load_config
+from robocal.workflows.config import load_config
 
 DEMO = files("robocal.io") / "demo" / "ur5_calibrate.yaml"
 

@@ -32,7 +32,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from robocal.io.config import Cfg, read_yaml
+from robocal.workflows.config import Cfg, read_yaml
 from robocal.dynamics.prior_weight import DEFAULT_GRID, RULES
 from robocal.dynamics.filtering import SignalOptions
 from robocal.dynamics.regression import EXTRA_TERMS

@@ -15,10 +15,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
-from robocal.estimation.fleet.engine import completed, dask_client
-from robocal.estimation.fleet.manifest import FleetSpec, UnitJob, load_fleet
-from robocal.estimation.fleet.table import FleetTable
-from robocal.estimation.fleet.unit import FINAL_STATUSES, LOST, calibrate_unit
+from robocal.estimation.parallel_map import completed, dask_client
+from robocal.workflows.fleet.manifest import FleetSpec, UnitJob, load_fleet
+from robocal.workflows.fleet.table import FleetTable
+from robocal.workflows.fleet.unit import FINAL_STATUSES, LOST, calibrate_unit
 
 log = logging.getLogger(__name__)
 #: the table is rewritten at most this often (s) while units finish, and once at the end

@@ -14,14 +14,14 @@ from typing import Sequence
 
 import numpy as np
 import pinocchio as pin
-import yaml
 
 from robocal.errors import InputError
+from robocal.io.yaml_files import read_yaml
 from robocal.estimation.calibrate import CalibrationOptions
 from robocal.estimation.problem import Problem
-from robocal.io.config_keys import TOP_KEYS, Cfg, check_keys
-from robocal.io.config_measurements import residual_class, residual_from_block
-from robocal.io.config_sections import (apply_parameter_overrides, approach_directions, joint_values,
+from robocal.workflows.config_keys import TOP_KEYS, Cfg, check_keys
+from robocal.workflows.config_measurements import residual_class, residual_from_block
+from robocal.workflows.config_sections import (apply_parameter_overrides, approach_directions, joint_values,
                                         parameters_from_config, solver_options)
 from robocal.io.tables import ANGLE_UNITS, LENGTH_UNITS, Table, read_csv
 from robocal.model.robot import Robot, load_example, load_urdf
@@ -46,25 +46,6 @@ class Setup:
     source: str = ""
 
 
-def read_yaml(path: Path):
-    """The parsed YAML file, or an InputError naming the file and line."""
-    path = Path(path)
-    if not path.is_file():
-        raise InputError("config file not found", source=str(path))
-    try:
-        return yaml.safe_load(path.read_text(encoding="utf-8"))
-    except UnicodeDecodeError as exc:
-        raise InputError(f"not a text file ({exc.reason})", source=str(path)) from None
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        line = mark.line + 1 if mark is not None else None
-        if line is None and isinstance(getattr(exc, "position", None), int):   # a ReaderError: a bad character
-            line = path.read_text(encoding="utf-8", errors="replace")[:exc.position].count("\n") + 1
-        where = "" if line is None else f" at line {line}"
-        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
-        raise InputError(f"not valid YAML{where}: {problem}", source=str(path)) from None
-
-
 def read_checked_config(path: Path) -> tuple[dict, Cfg]:
     """A config file parsed and checked key by key at every level: (the mapping, its root Cfg)."""
     raw = read_yaml(path)
@@ -74,10 +55,15 @@ def read_checked_config(path: Path) -> tuple[dict, Cfg]:
     return raw, Cfg(raw, "", str(path))
 
 
-def load_config(path: str | Path) -> Setup:
-    """The Setup of a calibration YAML file (see setup_from_config)."""
+def load_config(path: str | Path, urdf: str | Path | None = None) -> Setup:
+    """The Setup of a calibration YAML file (see setup_from_config), with the robot taken from `urdf`
+    instead of the config's when given (a unit's own URDF, a model under test)."""
     path = Path(path).resolve()
-    return setup_from_config(read_yaml(path), path.parent, str(path))
+    raw = read_yaml(path)
+    if urdf is not None and isinstance(raw, dict):
+        robot_cfg = {k: v for k, v in (raw.get("robot") or {}).items() if k not in ("urdf", "example")}
+        raw = {**raw, "robot": {**robot_cfg, "urdf": str(Path(urdf).resolve())}}
+    return setup_from_config(raw, path.parent, str(path))
 
 
 def data_units(data: Cfg) -> tuple[dict[str, str], dict[str, str]]:

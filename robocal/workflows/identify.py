@@ -19,7 +19,7 @@ from robocal.dynamics.constraint_cost import ConstraintCost, constraint_costs
 from robocal.dynamics.external_force import ExternalForceEstimator
 from robocal.dynamics.filtering import ProcessedLog, parallel_filter, process_log
 from robocal.dynamics.identification import base_values_of
-from robocal.dynamics.identify_config import (IdentifyConfig, load_identify_config, model_columns, reduced_model,
+from robocal.workflows.identify_config import (IdentifyConfig, load_identify_config, model_columns, reduced_model,
                                               velocity_index)
 from robocal.dynamics.inertial import is_physically_consistent, parameter_vector, pseudo_inertia, with_parameters
 from robocal.dynamics.log_loading import DEFAULT_PATTERNS, JointLog, load_joint_log

@@ -29,19 +29,19 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from robocal.io.config import data_units, joint_columns, read_checked_config, robot_from_config, setup_from_config
-from robocal.io.config_keys import Cfg
-from robocal.io.config_measurements import residual_class
-from robocal.io.config_sections import is_prismatic
+from robocal.workflows.config import data_units, joint_columns, read_checked_config, robot_from_config, setup_from_config
+from robocal.workflows.config_keys import Cfg
+from robocal.workflows.config_measurements import residual_class
+from robocal.workflows.config_sections import is_prismatic
 from robocal.io.tables import ANGLE_UNITS, LENGTH_UNITS, Table
 from robocal.design.selection import DesignMatrix, PoseSelection, select_poses
 from robocal.design.candidates import CandidateFilter, MeasurementVolume, filter_candidates, grid_candidates, \
     random_candidates
 from robocal.design.criteria import CRITERIA
 from robocal.errors import InputError
-from robocal.estimation.fleet.engine import map_tasks
+from robocal.estimation.parallel_map import map_tasks
 from robocal.model.kinematics import ModelState
-from robocal.io.output import write_folder
+from robocal.io.output_folder import write_folder
 from robocal.model.parameters import ParameterSet
 from robocal.design.prediction import (CurvePoint, ParameterPrediction, PosePrediction, accuracy_curve, pose_jacobians,
                          position_weight, predict_parameters, predict_pose_accuracy)

@@ -1,20 +1,32 @@
-"""The distributed engine: a Dask client on a LocalCluster (default) or on an existing scheduler.
+"""A general parallel map: a function over items, in this process or on Dask, results in input order.
 
-Workers are processes with one thread each and BLAS pinned to one thread (OMP_NUM_THREADS=1 and the
-like), so N workers use N cores without oversubscription. `map_tasks` is what fleet calibration and
-Monte-Carlo studies share: a function mapped over items, results in input order, identical to the
-serial loop as long as `fn` is deterministic in its item (a seed per item, never a shared RNG).
+`map_tasks(fn, items)` runs in this process by default and on Dask (a LocalCluster of single-threaded
+worker processes, or an existing scheduler) when asked; `monte_carlo(trial, n, seed)` maps a seeded trial
+over n repetitions. Results are identical to the serial loop as long as `fn` is deterministic in its item
+(a seed per item, never a shared RNG). Workers have BLAS pinned to one thread (OMP_NUM_THREADS=1 and the
+like), so N workers use N cores without oversubscription. Fleet calibration (robocal.workflows.fleet),
+plans, Monte-Carlo studies of the machines and robocal.testing use it. Dask is the optional [fleet]
+extra: imported only inside the functions that start a cluster.
+
+Monte-Carlo seeds: repetition k draws from its own Generator, seeded by the k-th child of numpy's
+SeedSequence(seed) (SeedSequence.spawn): independent streams that depend on (seed, k) only, never on
+which worker ran which repetition or in what order (docs/fleet.md, "Monte-Carlo studies on the cluster").
 """
 from __future__ import annotations
 
 import logging
 import os
 from contextlib import contextmanager
+from dataclasses import dataclass
 from typing import Callable, Iterable, Iterator
 
-#: set in every LocalCluster worker: one BLAS thread per single-threaded worker process
+import numpy as np
+
+from robocal.errors import InputError
+
 #: times a finished task's lost result is awaited again (its worker died before the result was fetched)
 MAX_RESULT_WAITS = 3
+#: set in every LocalCluster worker: one BLAS thread per single-threaded worker process
 WORKER_ENV = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
 
 
@@ -80,3 +92,28 @@ def map_tasks(fn: Callable, items: Iterable, scheduler: str | None = None, worke
     with dask_client(scheduler, workers) as client:
         futures = client.map(fn, items, pure=False)
         return client.gather(futures)
+
+def repetition_seeds(seed, n: int) -> list[np.random.SeedSequence]:
+    """The n child seeds of SeedSequence(seed), repetition k's being the k-th."""
+    if int(n) != n or n < 0:
+        raise InputError(f"the number of repetitions must be a non-negative integer, got {n}", field="n")
+    return np.random.SeedSequence(seed).spawn(int(n))
+
+
+@dataclass
+class SeededTrial:
+    """trial(Generator) as a function of a repetition's SeedSequence (picklable when trial is)."""
+    trial: Callable
+
+    def __call__(self, seed_sequence: np.random.SeedSequence):
+        return self.trial(np.random.default_rng(seed_sequence))
+
+
+def monte_carlo(trial: Callable, n: int, seed=0, scheduler: str | None = None, workers: int | None = None) -> list:
+    """[trial(rng_0), ..., trial(rng_{n-1})], rng_k = default_rng(SeedSequence(seed).spawn(n)[k]).
+
+    In this process by default; on a LocalCluster of `workers` processes or on the Dask scheduler at
+    `scheduler` otherwise (the optional [fleet] extra), with the same results in the same order, as long
+    as `trial` draws only from the Generator it is given. `trial` and what it returns must pickle for Dask.
+    """
+    return map_tasks(SeededTrial(trial), repetition_seeds(seed, n), scheduler, workers)

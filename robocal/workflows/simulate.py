@@ -23,10 +23,10 @@ import numpy as np
 
 from robocal.design.simulate import perturb, random_configurations, simulate_measurements
 from robocal.errors import InputError
-from robocal.io.config import data_units, joint_columns, read_checked_config, robot_from_config, setup_from_config
-from robocal.io.config_keys import Cfg
-from robocal.io.config_measurements import residual_class
-from robocal.io.config_sections import is_prismatic
+from robocal.workflows.config import data_units, joint_columns, read_checked_config, robot_from_config, setup_from_config
+from robocal.workflows.config_keys import Cfg
+from robocal.workflows.config_measurements import residual_class
+from robocal.workflows.config_sections import is_prismatic
 from robocal.io.tables import ANGLE_UNITS, LENGTH_UNITS, Table, write_csv
 from robocal.io.text_files import write_atomic
 

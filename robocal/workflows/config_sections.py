@@ -1,6 +1,6 @@
 """The `parameters:`, `data.approach` and `solver:` sections of the calibration YAML (docs/config.md).
 
-Called by robocal.io.config.setup_from_config; every mistake names the file and the key path.
+Called by robocal.workflows.config.setup_from_config; every mistake names the file and the key path.
 """
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import numpy as np
 
 from robocal.errors import InputError
 from robocal.estimation.calibrate import CalibrationOptions
-from robocal.io.config_keys import Cfg
+from robocal.workflows.config_keys import Cfg
 from robocal.io.tables import Table
 from robocal.model.approach import ApproachSpec, table_directions
 from robocal.model.parameters import COMPONENTS, ParameterSet, robot_parameters

@@ -1,4 +1,4 @@
-"""The output folder of a calibration or a plan: calibrated URDF, result JSON, summary text, ...
+"""Output folders written whole or not at all, with a manifest of what robocal wrote.
 
 Everything is written into a fresh temporary folder beside the target, which is renamed into place
 only when complete: a failure leaves no half-written output behind. The folder gets a manifest
@@ -16,7 +16,6 @@ from pathlib import Path
 
 from robocal.errors import InputError
 from robocal.io.text_files import write_atomic
-from robocal.io.urdf_export import calibrated_urdf
 
 MANIFEST = ".robocal-manifest.json"
 _SHOWN = 5   # foreign files named in the refusal
@@ -108,21 +107,3 @@ def write_folder(out_dir: str | Path, files: dict[str, bytes], force: bool = Fal
         shutil.rmtree(tmp, ignore_errors=True)
         raise
     return {name: out / name for name in files}
-
-
-def write_results(robot, result, out_dir: str | Path, force: bool = False, allow_failed: bool = False,
-                  extra: dict[str, bytes] | None = None) -> dict[str, Path]:
-    """Write result.json, summary.txt and (for a successful fit) the calibrated URDF.
-
-    Returns {file name: final path}. An existing folder is replaced only with force=True, and only if
-    robocal wrote it.
-    """
-    out = Path(out_dir).resolve()
-    if robot.urdf_path is not None and Path(robot.urdf_path).resolve().parent == out:
-        raise InputError("the output folder holds the input URDF; choose another folder", source=str(out))
-    files = {"result.json": (result.to_json() + "\n").encode(), "summary.txt": (result.summary() + "\n").encode()}
-    if robot.urdf_text and (result.success or allow_failed):
-        name = f"{Path(robot.urdf_path).stem if robot.urdf_path else robot.name}_calibrated.urdf"
-        files[name] = calibrated_urdf(robot, result.params)
-    files.update(extra or {})
-    return write_folder(out, files, force)

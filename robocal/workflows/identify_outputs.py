@@ -1,6 +1,6 @@
 """Output of `robocal identify dyn.yaml`: result.json, summary.txt, torque_validation.png (measured vs
 predicted torque per recorded joint on the validation window) and, when it can be written, the URDF with
-the identified inertias and friction; written atomically (robocal.io.output.write_folder: an error leaves
+the identified inertias and friction; written atomically (robocal.io.output_folder.write_folder: an error leaves
 no half-written folder). See docs/dynamics_tiago.md.
 """
 from __future__ import annotations
@@ -12,10 +12,10 @@ from pathlib import Path
 import numpy as np
 
 from robocal.dynamics.constraint_cost import MEASURABLE_COST
-from robocal.dynamics.identify_run import MODELS, IdentifyResult
+from robocal.workflows.identify import MODELS, IdentifyResult
 from robocal.dynamics.inertial import parameter_vector
 from robocal.dynamics.urdf_inertials import identified_urdf
-from robocal.io.output import write_folder
+from robocal.io.output_folder import write_folder
 
 LABELS = {"cad": "CAD (URDF)", "ols": "OLS base parameters", "consistent": "physically consistent"}
 

@@ -18,7 +18,7 @@ from lxml import etree
 
 from robocal.errors import InputError
 from robocal.io.text_files import format_numbers, write_atomic
-from robocal.io.urdf_export_loops import driven_offset_scales, edit_closure_elements
+from robocal.model.urdf_export_loops import driven_offset_scales, edit_closure_elements
 from robocal.model.parameters import ParameterSet
 
 

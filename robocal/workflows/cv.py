@@ -1,0 +1,38 @@
+"""`robocal cv`: the folds of a config's samples (K-fold, leave-one-out, leave-one-group-out)."""
+from __future__ import annotations
+
+import numpy as np
+
+from robocal.errors import InputError
+from robocal.estimation.cross_validation import kfold
+
+
+# ---------------------------------------------------------------- cross-validation
+def group_folds(setup, column: str) -> list[np.ndarray]:
+    """Leave-one-group-out folds: the samples sharing a value of `column` of the data CSV, in order of first
+    appearance. A sample's group is read from the row it came from."""
+    labels = []
+    for file, row in setup.sample_rows:
+        tab = setup.tables[file]
+        if not tab.has(column):
+            raise InputError(f"no group column '{column}' (columns present: {', '.join(tab.header)})",
+                             source=str(tab.path), field=column)
+        labels.append(tab.cells[row][tab.header.index(column)].strip())
+    groups = list(dict.fromkeys(labels))
+    if len(groups) < 2:
+        raise InputError(f"column '{column}' holds a single group: nothing to hold out", field=column)
+    labels = np.array(labels)
+    return [np.flatnonzero(labels == g) for g in groups]
+
+def make_folds(setup, folds: int | None = None, loo: bool = False, group: str | None = None):
+    """(folds, description): `group` column -> leave-one-group-out, `loo` -> leave-one-out, else K interleaved
+    folds (default 5, fold i = samples i, i + K, ...)."""
+    n = len(setup.problem.values)
+    if group:
+        return group_folds(setup, group), f"leave-one-group-out on column '{group}'"
+    if loo:
+        return kfold(n, n), f"leave-one-out ({n} folds)"
+    k = folds or min(5, n)
+    if not 2 <= k <= n:
+        raise InputError(f"need 2 <= folds <= {n} samples, got {k}", field="--folds")
+    return kfold(n, k), f"{k}-fold"
