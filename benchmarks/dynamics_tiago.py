@@ -31,7 +31,8 @@ import numpy as np  # noqa: E402
 
 from figaroh_env import add_options, figaroh_python, run_driver  # noqa: E402
 import robocal.workflows.identify as identify_run  # noqa: E402
-from robocal.workflows.identify import MODELS, identify_from_config  # noqa: E402
+from robocal.dynamics.identify_log import MODELS
+from robocal.workflows.identify import identify_from_config  # noqa: E402
 from robocal.dynamics.log_loading import load_joint_log  # noqa: E402
 
 CONFIG = ROOT / "examples/tiago_dynamics/identify.yaml"

@@ -5,7 +5,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from robocal.workflows.identify_config import reduced_model
+from robocal.dynamics.reduced_model import reduced_model
 from robocal.dynamics.inertial import is_physically_consistent, parameter_vector, pseudo_inertia
 from robocal.dynamics.psd_qp import TO_SVEC, nearest_realisable, solve_psd_qp
 

@@ -7,7 +7,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from robocal.workflows.identify_config import velocity_index
+from robocal.dynamics.reduced_model import velocity_index
 from robocal.dynamics.constraint_cost import MEASURABLE_COST
 from robocal.workflows.identify_outputs import summary_text
 from robocal.workflows.identify import identify_from_config

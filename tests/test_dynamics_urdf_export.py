@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from robocal.workflows.identify_config import reduced_model
+from robocal.dynamics.reduced_model import reduced_model
 from robocal.workflows.identify_outputs import summary_text, urdf_of, write_identification
 from robocal.workflows.identify import identify_from_config
 from robocal.dynamics.inertial import parameter_vector

@@ -10,7 +10,7 @@ import pinocchio as pin
 import yaml
 from scipy.signal import butter, sosfiltfilt
 
-from robocal.workflows.identify_config import reduced_model
+from robocal.dynamics.reduced_model import reduced_model
 from robocal.dynamics.inertial import parameter_vector, with_parameters
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples/tiago_dynamics"

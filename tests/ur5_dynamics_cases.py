@@ -6,7 +6,7 @@ import pinocchio as pin
 import yaml
 
 from robocal import load_example
-from robocal.workflows.identify_config import reduced_model
+from robocal.dynamics.reduced_model import reduced_model
 from tiago_dynamics_cases import trajectory, truth_model
 
 COULOMB, VISCOUS, OFFSET = 1.0, 2.0, 0.3          # N m, N m s/rad, N m: the same on every joint

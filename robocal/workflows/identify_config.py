@@ -29,10 +29,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import numpy as np
-import pinocchio as pin
-
-from robocal.workflows.config import Cfg, read_yaml
+from robocal.dynamics.identify_log import IdentifyOptions
+from robocal.io.yaml_files import read_yaml
+from robocal.workflows.config_keys import Cfg
 from robocal.dynamics.prior_weight import DEFAULT_GRID, RULES
 from robocal.dynamics.filtering import SignalOptions
 from robocal.dynamics.regression import EXTRA_TERMS
@@ -43,29 +42,19 @@ SIGNAL_KEYS = ("cutoff_hz", "power_fraction", "cutoff_margin", "order", "decimat
                "velocity_source", "edge_periods")
 
 
-@dataclass
-class IdentifyConfig:
-    source: str
+@dataclass(kw_only=True)
+class IdentifyConfig(IdentifyOptions):
+    """The identification options and where the robot and the log come from (paths resolved)."""
+
     urdf: Path
     joints: list[str]
     files: dict[str, Path]
-    time_column: str
-    patterns: dict[str, str]
+    time_column: str = "t"
+    patterns: dict[str, str] = field(default_factory=dict)
     recorded: list[str]
     torque_scale: dict[str, float]
-    torque_offset: dict[str, float]
-    signal: SignalOptions
-    train: tuple[float, float]
-    validate: tuple[float, float]
-    min_motion: float = 0.01
-    terms: tuple[str, ...] = EXTRA_TERMS
-    coulomb_width: float = 0.05
-    prior_grid: tuple[float, ...] = DEFAULT_GRID
-    prior_split: float = 0.75
-    wrench_frame: str | None = None
+    torque_offset: dict[str, float] = field(default_factory=dict)
     output: Path | None = None
-    raw: dict = field(default_factory=dict, repr=False)
-    prior_rule: str = "within_noise"
 
 
 def load_identify_config(path_or_dict, base_dir: str | Path | None = None) -> IdentifyConfig:
@@ -112,17 +101,18 @@ def load_identify_config(path_or_dict, base_dir: str | Path | None = None) -> Id
     out = root.get("output")
     try:
         cfg = IdentifyConfig(
-            source, base / str(robot.get("urdf", required=True, types=str)), joints, files,
-            str(data.get("time_column", "t", types=str)), {str(k): str(v) for k, v in columns.items()},
-            recorded, {j: gear[j] * kmotor[j] for j in recorded},
-            {str(k): float(v) for k, v in offsets.items()}, SignalOptions(**opts), train, validate,
-            float(windows.get("min_motion", 0.01, types=(int, float))),
-            tuple(model.get("terms", list(EXTRA_TERMS), types=list)),
-            float(model.get("coulomb_width", 0.05, types=(int, float))),
-            tuple(float(x) for x in model.get("prior_grid", list(DEFAULT_GRID), types=list)),
-            float(model.get("prior_split", 0.75, types=(int, float))),
-            wrench.get("frame", None, types=str), None if out is None else base / str(out), raw,
-            str(model.get("prior_rule", "within_noise", types=str)))
+            source=source, urdf=base / str(robot.get("urdf", required=True, types=str)), joints=joints,
+            files=files, time_column=str(data.get("time_column", "t", types=str)),
+            patterns={str(k): str(v) for k, v in columns.items()}, recorded=recorded,
+            torque_scale={j: gear[j] * kmotor[j] for j in recorded},
+            torque_offset={str(k): float(v) for k, v in offsets.items()}, signal=SignalOptions(**opts),
+            train=train, validate=validate, min_motion=float(windows.get("min_motion", 0.01, types=(int, float))),
+            terms=tuple(model.get("terms", list(EXTRA_TERMS), types=list)),
+            coulomb_width=float(model.get("coulomb_width", 0.05, types=(int, float))),
+            prior_grid=tuple(float(x) for x in model.get("prior_grid", list(DEFAULT_GRID), types=list)),
+            prior_split=float(model.get("prior_split", 0.75, types=(int, float))),
+            wrench_frame=wrench.get("frame", None, types=str), output=None if out is None else base / str(out),
+            prior_rule=str(model.get("prior_rule", "within_noise", types=str)))
     except TypeError as exc:
         raise InputError(f"bad value: {exc}", source=source, field="signal") from None
     except InputError as exc:              # SignalOptions knows the key, not the file
@@ -159,35 +149,3 @@ def _window(cfg: Cfg, key: str) -> tuple[float, float]:
     if len(w) != 2 or not all(isinstance(x, (int, float)) for x in w) or not w[0] < w[1]:
         raise cfg.error("expected [start, stop] in seconds with start < stop", key)
     return float(w[0]), float(w[1])
-
-
-def reduced_model(urdf: Path, joints: list[str]) -> pin.Model:
-    """The URDF's model with only `joints` free, the others locked at their neutral value."""
-    if not Path(urdf).is_file():
-        raise InputError("URDF file not found", source=str(urdf), field="robot.urdf")
-    full = pin.buildModelFromUrdf(str(urdf))
-    for name in joints:
-        if not full.existJointName(name):
-            raise InputError(f"joint '{name}' is not in the URDF (it has: "
-                             f"{', '.join(full.names[i] for i in range(1, full.njoints))})",
-                             source=str(urdf), field="robot.joints")
-    lock = [i for i in range(1, full.njoints) if full.names[i] not in joints]
-    model = pin.buildReducedModel(full, lock, pin.neutral(full))
-    for j in range(1, model.njoints):
-        if model.joints[j].nq != 1 or model.joints[j].nv != 1:
-            raise InputError(f"joint '{model.names[j]}' is not a one-axis joint (nq {model.joints[j].nq}): "
-                             "only revolute and prismatic joints are supported", source=str(urdf),
-                             field="robot.joints")
-    return model
-
-
-def velocity_index(model: pin.Model, name: str) -> int:
-    return model.joints[model.getJointId(name)].idx_v
-
-
-def model_columns(model: pin.Model, names: list[str], values: np.ndarray) -> np.ndarray:
-    """Log columns in `names` order -> (T, nv) in the model's joint order."""
-    out = np.zeros((len(values), model.nv))
-    for k, name in enumerate(names):
-        out[:, velocity_index(model, name)] = values[:, k]
-    return out

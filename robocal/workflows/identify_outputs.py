@@ -12,7 +12,8 @@ from pathlib import Path
 import numpy as np
 
 from robocal.dynamics.constraint_cost import MEASURABLE_COST
-from robocal.workflows.identify import MODELS, IdentifyResult
+from robocal.dynamics.identify_log import MODELS
+from robocal.workflows.identify import IdentifyResult
 from robocal.dynamics.inertial import parameter_vector
 from robocal.dynamics.urdf_inertials import identified_urdf
 from robocal.io.output_folder import write_folder
