@@ -36,7 +36,7 @@ from reference_evaluation import reference_evaluate  # noqa: E402
 from synthetic_cases import ur5_pose_problem  # noqa: E402
 from robocal.design.simulate import perturb, simulate_measurements  # noqa: E402
 from robocal.estimation.calibrate import calibrate  # noqa: E402
-from robocal.workflows.config import load_config  # noqa: E402
+from robocal.workflows.setup import load_config  # noqa: E402
 from cli_timing import robocal_cli_seconds  # noqa: E402
 from figaroh_env import add_options, skip_message  # noqa: E402
 

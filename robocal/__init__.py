@@ -8,7 +8,7 @@ from robocal.estimation.calibrate import CalibrationOptions, calibrate
 from robocal.estimation.problem import Problem
 from robocal.estimation.result import CalibrationResult
 from robocal.workflows.evaluate import evaluate_result
-from robocal.workflows.config import Setup, load_config
+from robocal.workflows.setup import Setup, load_config
 from robocal.workflows.outputs import write_results
 from robocal.model.urdf_export import export_urdf
 from robocal.model.parameters import Parameter, ParameterSet, robot_parameters

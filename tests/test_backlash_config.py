@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from robocal.model.approach import directions_from_order
-from robocal.workflows.config import load_config
+from robocal.workflows.setup import load_config
 from robocal.errors import InputError
 
 UR5 = ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint",

@@ -15,7 +15,7 @@ def test_demo_writes_urdf_json_and_summary(tmp_path, capsys):
     out = tmp_path / "demo"
     assert main(["demo", "-o", str(out), "-q"]) == 0
     files = sorted(p.name for p in out.iterdir())
-    assert files == [".robocal-manifest.json", "report.html", "result.json", "scene.json", "summary.txt",
+    assert files == [".robocal-manifest.json", "config.yaml", "report.html", "result.json", "scene.json", "summary.txt",
                      "ur5_robot_calibrated.urdf"]
     result = json.loads((out / "result.json").read_text())
     assert result["success"] and result["identifiability"]["rank"] == 30

@@ -6,7 +6,7 @@ import pytest
 import yaml
 
 from robocal.errors import InputError
-from robocal.workflows.config import load_config, setup_from_config
+from robocal.workflows.setup import load_config, setup_from_config
 from robocal.workflows.config_keys import PYTHON_ONLY_TYPES, SCHEMA, all_key_names, check_keys
 from robocal.residuals import REGISTRY
 

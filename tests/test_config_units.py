@@ -9,7 +9,7 @@ import pytest
 import yaml
 
 from robocal.cli.main import main
-from robocal.workflows.config import load_config, setup_from_config
+from robocal.workflows.setup import load_config, setup_from_config
 from robocal.workflows.data_check import spread_ratios, units_findings
 
 ROOT = Path(__file__).parents[1]

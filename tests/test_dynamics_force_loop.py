@@ -16,7 +16,8 @@ from robocal.dynamics.force_loop import admittance_for_margins, margins, plant_m
 from robocal.dynamics.friction import FrictionModel
 from robocal.dynamics.generator import PathGenerator
 from robocal.dynamics.instructions import MotionParams, movelf
-from robocal.dynamics.inverse_kinematics import solve_ik
+from robocal.dynamics.instructions import tick_ik_options
+from robocal.model.inverse_kinematics import solve_ik
 from robocal.dynamics.simulator import RobotSimulator, servo_gains
 from force_cases import Q0, frame_pose
 
@@ -53,7 +54,7 @@ def test_plant_model_matches_simulated_setpoint_step(ur5, current_bandwidth):
     sim_out, model_out = [], []
     for k in range(14):
         r = 1e-5 if k >= 3 else 0.0
-        q = solve_ik(m, d, fid, pin.SE3(start.rotation, start.translation + r * U), q)
+        q = solve_ik(m, fid, pin.SE3(start.rotation, start.translation + r * U), q, data=d, **tick_ik_options(1e-10))
         meas = sim.step(q)
         state = diff.push(meas.q_mes)
         w = est.tick(*state, last)[0] if state is not None and last is not None else np.zeros(6)

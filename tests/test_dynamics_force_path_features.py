@@ -9,7 +9,8 @@ import robocal
 from robocal.dynamics.blending import BlendedPath
 from robocal.dynamics.generator import PathGenerator
 from robocal.dynamics.instructions import MotionParams, movecf, movelf
-from robocal.dynamics.inverse_kinematics import solve_ik
+from robocal.dynamics.instructions import tick_ik_options
+from robocal.model.inverse_kinematics import solve_ik
 from robocal.dynamics.joint_projection import joint_derivatives
 from robocal.dynamics.limits import project_limits
 from robocal.dynamics.path import LinearPath
@@ -48,7 +49,7 @@ def test_joint_derivatives_match_finite_differences_of_ik(ur5):
     h = 1e-3
     for path in (turning_line(start)[1], corner_path(start)):
         for s in (0.2, 0.5, 0.77):
-            q = {k: solve_ik(m, d, fid, path.pose(s + k * h), Q0, 1e-13) for k in (-1, 0, 1)}
+            q = {k: solve_ik(m, fid, path.pose(s + k * h), Q0, data=d, **tick_ik_options(1e-13)) for k in (-1, 0, 1)}
             _, df, ddf = path.derivatives(s)
             dh, ddh = joint_derivatives(m, d, fid, q[0], df, ddf, *path.angular_derivatives(s))
             # central differences: truncation h^2/6 |h'''| ~ 1e-6 here; IK residual 1e-13/h^2 = 1e-7
@@ -90,7 +91,7 @@ def test_cartesian_path_past_a_joint_limit_is_refused(ur5):
     m, fid = pin.Model(robot.model), robot.frame_id("tool0")
     end, path = turning_line(start)
     d = m.createData()
-    q_end = solve_ik(m, d, fid, end, Q0)
+    q_end = solve_ik(m, fid, end, Q0, data=d, **tick_ik_options(1e-10))
     moving = int(np.argmax(np.abs(q_end - Q0)))
     upper = m.upperPositionLimit.copy()
     lower = m.lowerPositionLimit.copy()

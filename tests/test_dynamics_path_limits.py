@@ -5,7 +5,8 @@ import pytest
 
 import robocal
 from robocal.dynamics.instructions import MotionParams, movejf, movelf
-from robocal.dynamics.inverse_kinematics import IKFailure, solve_ik
+from robocal.dynamics.instructions import tick_ik_options
+from robocal.model.inverse_kinematics import IKFailure, solve_ik
 from robocal.dynamics.limits import project_limits
 from robocal.dynamics.path import CircularPath, JointPath, LinearPath, SplinePath
 from robocal.errors import InputError
@@ -131,8 +132,8 @@ def test_ik_round_trip(ur5):
         q = rng.uniform(-2, 2, 6)
         pin.framesForwardKinematics(m, d, q)
         target = d.oMf[fid].copy()
-        q_sol = solve_ik(m, d, fid, target, q + rng.normal(scale=0.05, size=6))
+        q_sol = solve_ik(m, fid, target, q + rng.normal(scale=0.05, size=6), data=d, **tick_ik_options(1e-10))
         pin.framesForwardKinematics(m, d, q_sol)
         assert np.linalg.norm(pin.log6(target.actInv(d.oMf[fid])).vector) <= 1e-10
     with pytest.raises(IKFailure):
-        solve_ik(m, d, fid, pin.SE3(np.eye(3), np.array([5.0, 0, 0])), q)
+        solve_ik(m, fid, pin.SE3(np.eye(3), np.array([5.0, 0, 0])), q, data=d, **tick_ik_options(1e-10))

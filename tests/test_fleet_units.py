@@ -1,4 +1,6 @@
 """Fleet pieces without a cluster: manifest errors, the Parquet table, outliers and drift (docs/fleet.md)."""
+import dataclasses
+
 import numpy as np
 import pytest
 import yaml
@@ -10,6 +12,7 @@ from robocal.estimation.parallel_map import map_tasks  # noqa: E402
 from robocal.workflows.fleet.manifest import load_fleet  # noqa: E402
 from robocal.workflows.fleet.report import fleet_report, summary_lines  # noqa: E402
 from robocal.workflows.fleet.table import FleetTable, read_table, write_table  # noqa: E402
+from robocal.workflows.config_types import MeasurementConfig  # noqa: E402
 from robocal.workflows.fleet.unit import FINAL_STATUSES, calibrate_unit, unit_config  # noqa: E402
 
 
@@ -139,11 +142,13 @@ def test_glob_units_and_per_unit_files(tmp_path):
     (tmp_path / "units.csv").write_text("unit,data,data:plane.csv,urdf,date\nC,c.csv,c_plane.csv,c.urdf,2026-02-03\n")
     path.write_text(yaml.safe_dump(raw))
     job = load_fleet(path).jobs[0]
-    job.raw["measurements"].append({"type": "plane", "frame": "tool0", "csv": "plane.csv"})
+    plane = MeasurementConfig("plane", "plane1", "tool0", "measurements[1]", csv=job.config.base_dir / "plane.csv")
+    job = dataclasses.replace(job, config=dataclasses.replace(job.config,
+                                                              measurements=(*job.config.measurements, plane)))
     cfg = unit_config(job)
-    assert cfg["data"]["csv"] == str(tmp_path / "c.csv") and cfg["measurements"][1]["csv"] == str(tmp_path / "c_plane.csv")
-    assert cfg["robot"] == {"urdf": str(tmp_path / "c.urdf")} and job.key == "C_2026-02-03"
-    assert cfg["output"]["dir"] == str(tmp_path / "fleet-output" / "units" / "C_2026-02-03")
+    assert cfg.data.csv == tmp_path / "c.csv" and cfg.measurements[1].csv == tmp_path / "c_plane.csv"
+    assert cfg.robot.urdf == tmp_path / "c.urdf" and job.key == "C_2026-02-03"
+    assert cfg.output.dir == tmp_path / "fleet-output" / "units" / "C_2026-02-03"
 
 
 def test_fleet_report_command(tmp_path, capsys):

@@ -10,7 +10,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from robocal.errors import InputError
-from robocal.workflows.config import load_config
+from robocal.workflows.setup import load_config
 from robocal.model.robot import load_urdf
 
 ROOT = Path(__file__).parents[1]

@@ -4,7 +4,7 @@ import pinocchio as pin
 import pytest
 
 import robocal
-from robocal.model.inverse_kinematics import IKFailure, damped_step, frame_ik, pose_error, reading_ik
+from robocal.model.inverse_kinematics import IKFailure, damped_step, pose_error, solve_ik
 from robocal.model.kinematics import ModelState
 from robocal.model.parameters import ParameterSet
 
@@ -38,10 +38,10 @@ def test_pose_error_jacobian_matches_central_differences(ur5):
     np.testing.assert_allclose(J, fd, rtol=0, atol=1e-8)
 
 
-def test_frame_ik_keeps_the_warm_start_branch(ur5):
+def test_solve_ik_keeps_the_warm_start_branch(ur5):
     q_true = np.array([0.3, -1.2, 1.4, -0.5, 1.1, 0.2])
     target = tool_pose(ur5, q_true)[0]
-    q = frame_ik(ur5.model, ur5.frame_id("tool0"), target, q_true + 0.2)
+    q = solve_ik(ur5.model, ur5.frame_id("tool0"), target, q_true + 0.2)
     np.testing.assert_allclose(q, q_true, atol=1e-9)     # the same elbow/wrist branch, not another solution
 
 
@@ -50,21 +50,21 @@ def test_unreachable_target_fails_with_a_clear_message(ur5):
     with pytest.raises(IKFailure, match=r"sample 7: inverse kinematics (is stuck at an error of [0-9.e+-]+ after \d+ "
                                         r"iterations|did not converge in 100 iterations \(an error of [0-9.e+-]+ "
                                         r"remains\)): out of reach"):
-        frame_ik(ur5.model, ur5.frame_id("tool0"), far, np.zeros(6), sample=7)
+        solve_ik(ur5.model, "tool0", far, np.zeros(6), sample=7)
     with pytest.raises(IKFailure, match=r"^the given input: inverse kinematics did not converge in 3 iterations"):
-        frame_ik(ur5.model, ur5.frame_id("tool0"), far, np.zeros(6), max_iterations=3)
+        solve_ik(ur5.model, ur5.frame_id("tool0"), far, np.zeros(6), max_iterations=3)
 
 
-def test_reading_ik_stays_within_the_joint_limits(ur5):
+def test_solve_ik_on_readings_stays_within_the_joint_limits(ur5):
     joints = ur5.joint_names
     ms = ModelState(ur5, ParameterSet(), joints)
     q_true = np.array([0.5, -1.2, 1.4, -0.5, 1.1, 0.2])
     target = tool_pose(ur5, q_true)[0]
     lower, upper = np.full(6, -np.pi), np.full(6, np.pi)
-    np.testing.assert_allclose(reading_ik(ms, "tool0", target, q_true + 0.1, lower, upper), q_true, atol=1e-9)
+    np.testing.assert_allclose(solve_ik(ms, "tool0", target, q_true + 0.1, lower=lower, upper=upper, max_iterations=200, max_step=0.3), q_true, atol=1e-9)
     upper[0] = 0.3                                        # the base joint may not reach its 0.5 rad
     with pytest.raises(IKFailure, match="inverse kinematics"):
-        reading_ik(ms, "tool0", target, q_true - 0.3, lower, upper, max_iterations=60)
+        solve_ik(ms, "tool0", target, q_true - 0.3, lower=lower, upper=upper, max_iterations=60, max_step=0.3)
 
 
 def test_damped_step_is_the_minimum_norm_step_on_a_redundant_jacobian():

@@ -6,7 +6,7 @@ import pytest
 
 import robocal
 from robocal.errors import AssemblyError
-from robocal.model.inverse_kinematics import frame_ik
+from robocal.model.inverse_kinematics import solve_ik
 from robocal.model.loops import assemble
 
 A, B, C, D = 0.1, 0.3, 0.25, 0.3  # crank, coupler, rocker, ground (m)
@@ -110,7 +110,7 @@ def test_generic_inverse_kinematics_reaches_a_target_on_the_closed_chain(fourbar
     target = data.oMf[fid].copy()
     guess = fourbar.configuration(["crank", "rocker"], [0.9, 1.9])
     # the coupler pose (planar: x, y, angle) fixes the mechanism; out-of-plane rows are redundant
-    q = frame_ik(fourbar.model, fid, target, guess, loops=fourbar.loops)
+    q = solve_ik(fourbar.model, fid, target, guess, loops=fourbar.loops)
     assert fourbar.loops.actuated_values(q)[0] == pytest.approx(1.1, abs=1e-10)
     pin.framesForwardKinematics(fourbar.model, data, q)
     assert np.linalg.norm(pin.log6(target.actInv(data.oMf[fid])).vector) < 1e-12
@@ -122,7 +122,7 @@ def test_generic_inverse_kinematics_on_a_serial_arm():
     q_true = np.array([0.3, -1.2, 1.4, -0.5, 1.1, 0.2])
     pin.framesForwardKinematics(robot.model, data, q_true)
     target = data.oMf[robot.frame_id("tool0")].copy()
-    q = frame_ik(robot.model, robot.frame_id("tool0"), target, q_true + 0.05)
+    q = solve_ik(robot.model, robot.frame_id("tool0"), target, q_true + 0.05)
     np.testing.assert_allclose(q, q_true, atol=1e-9)
 
 

@@ -12,14 +12,34 @@ PACKAGES = ["robocal", "robocal.model", "robocal.residuals", "robocal.estimation
 API_PAGE = (Path(__file__).resolve().parents[1] / "docs" / "api.md").read_text(encoding="utf-8")
 
 
+def section(package: str) -> str:
+    return API_PAGE.split(f"## `{package}`", 1)[1].split("\n## ", 1)[0]
+
+
 @pytest.mark.parametrize("package", PACKAGES)
 def test_every_exported_name_resolves_and_is_documented(package):
     module = importlib.import_module(package)
-    section = API_PAGE.split(f"## `{package}`", 1)[1].split("\n## ", 1)[0]
-    missing = [name for name in module.__all__ if f"`{name}`" not in section]
+    missing = [name for name in module.__all__ if f"| `{name}` |" not in section(package)]
     assert not missing, f"docs/api.md, section {package}, does not list {missing}"
     for name in module.__all__:
         assert getattr(module, name) is not None
+
+
+@pytest.mark.parametrize("package", PACKAGES)
+def test_every_listed_name_exists(package):
+    module = importlib.import_module(package)
+    listed = re.findall(r"^\| `(\w+)` \|", section(package), re.M)
+    assert listed, f"docs/api.md has no table for {package}"
+    unknown = [name for name in listed if name not in module.__all__]
+    assert not unknown, f"docs/api.md, section {package}, lists names {package} does not export: {unknown}"
+
+
+def test_every_command_has_its_python_equivalent():
+    from robocal.cli.main import build_parser
+    commands = build_parser()._subparsers._group_actions[0].choices
+    table = API_PAGE.split("## Commands and their Python equivalents", 1)[1].split("\n## ", 1)[0]
+    missing = [c for c in commands if f"`robocal {c}" not in table]
+    assert not missing, f"docs/api.md's command table misses {missing}"
 
 
 def test_unknown_names_raise_attribute_error():

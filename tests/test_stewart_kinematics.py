@@ -8,7 +8,7 @@ import pytest
 
 import robocal
 from robocal.errors import AssemblyError, InputError
-from robocal.model.inverse_kinematics import frame_ik
+from robocal.model.inverse_kinematics import solve_ik
 from robocal.model.loops import assemble
 from robocal.systems.stewart import fk as stewart_fk, mechanism as st
 
@@ -54,7 +54,7 @@ def test_generic_ik_agrees_with_closed_form_ik(machine):
     geometry, robot = machine
     R, p = st.random_workspace_poses(geometry, 5, np.random.default_rng(2))
     for k in range(5):
-        q = frame_ik(robot.model, robot.frame_id("platform"), pin.SE3(R[k], p[k]), loops=robot.loops, sample=k)
+        q = solve_ik(robot.model, robot.frame_id("platform"), pin.SE3(R[k], p[k]), loops=robot.loops, sample=k)
         expected = st.inverse_kinematics(geometry, pin.SE3(R[k], p[k]))
         assert np.abs(robot.loops.actuated_values(q) - expected).max() < 1e-10
 

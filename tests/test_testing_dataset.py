@@ -4,7 +4,7 @@ from importlib.resources import files
 import pytest
 
 from robocal.estimation.calibrate import calibrate
-from robocal.workflows.config import load_config
+from robocal.workflows.setup import load_config
 from robocal.model.urdf_export import export_urdf
 from robocal.testing import assert_reproduces_dataset
 

@@ -12,7 +12,7 @@ import pytest
 # Imported here, before any in-process pytester run: pytester drops the modules a run imported, and
 # numpy's C extensions (pulled in by scipy) cannot be loaded twice in one process.
 from robocal.estimation.calibrate import calibrate
-from robocal.workflows.config import load_config
+from robocal.workflows.setup import load_config
 from robocal.model.urdf_export import export_urdf
 import robocal.testing  # noqa: F401  (scipy.stats)
 

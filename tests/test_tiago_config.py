@@ -4,7 +4,7 @@ from pathlib import Path
 import numpy as np
 
 from robocal.estimation.calibrate import calibrate
-from robocal.workflows.config import load_config
+from robocal.workflows.setup import load_config
 
 CONFIG = Path(__file__).parents[1] / "examples" / "tiago_mocap" / "offsets_bl.yaml"
 

@@ -72,7 +72,7 @@ atexit.register(shutil.rmtree, _TMP, True)
 @lru_cache(maxsize=1)
 def demo_result_dir() -> Path:
     """The output folder of the demo config (UR5, 60 tracker poses), with scene.json, as `robocal calibrate` will write it."""
-    from robocal.workflows.config import load_config
+    from robocal.workflows.setup import load_config
     from robocal.workflows.outputs import write_results
 
     setup = load_config(files("robocal.io") / "demo" / "ur5_calibrate.yaml")

@@ -9,7 +9,7 @@ import numpy as np
 
 from robocal import load_urdf
 from robocal.estimation.calibrate import calibrate
-from robocal.workflows.config import load_config
+from robocal.workflows.setup import load_config
 from robocal.systems.laser_psd.calibration import calibrate_laser, zero_offset_problem
 from robocal.systems.pcmm import error_model as pe
 from robocal.systems.pcmm.machine import (reference_artefact, reference_geometry, reference_placements, reference_raw,

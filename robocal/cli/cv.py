@@ -1,15 +1,15 @@
 """`robocal cv CONFIG [--folds K | --loo] [--group COLUMN]`: cross-validate a calibration (docs/validation.md)."""
 from __future__ import annotations
 
-from robocal.estimation.cross_validation import cv_table
-from robocal.workflows.cv import make_folds
-from robocal.workflows.config import load_config
+import sys
+
+from robocal.workflows.cv import run_cv
 
 
 def cmd_cv(args) -> int:
-    setup = load_config(args.config)
-    folds, label = make_folds(setup, args.folds, args.loo, args.group)
-    table = cv_table(setup.problem, folds, setup.options)
+    table, label, notes = run_cv(args.config, args.folds, args.loo, args.group, args.allow_failed)
+    for note in notes:
+        print(f"robocal: {note}", file=sys.stderr)
     u = table.unit
     print(f"Cross-validation of {args.config}, {label}: RMS of the error norm ({u}), each fold fitted without "
           "its samples")
@@ -34,4 +34,5 @@ def add_parser(subparsers) -> None:
     c = subparsers.add_parser("cv", help="cross-validate a calibration config (K-fold, leave-one-out or grouped)")
     c.add_argument("config", help="calibration YAML (docs/config.md)")
     add_fold_arguments(c)
+    c.add_argument("--allow-failed", action="store_true", help="go on despite implausible data (a units mix-up)")
     c.set_defaults(handler=cmd_cv)

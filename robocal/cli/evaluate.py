@@ -1,13 +1,11 @@
 """`robocal evaluate RESULT_DIR DATA.csv`: score a calibrated model on another session (docs/validation.md)."""
 from __future__ import annotations
 
-import json
 import sys
 from pathlib import Path
 
 from robocal.errors import InputError
-from robocal.workflows.evaluate import evaluate_result
-from robocal.io.output_folder import write_folder
+from robocal.workflows.evaluate import evaluate_result, write_evaluation
 
 
 def cmd_evaluate(args) -> int:
@@ -32,17 +30,10 @@ def cmd_evaluate(args) -> int:
     for o in report.outside:
         beyond = ", ".join(f"{j} {v:+.3g}" for j, v in o["beyond_range"].items())
         print(f"  outside the training range: CSV line {o['csv_line']} ({beyond}, SI)")
-    name = f"evaluation_{Path(args.data).stem}.json"
-    files = {p.name: p.read_bytes() for p in folder.iterdir() if p.is_file()}
-    files[name] = (json.dumps(report.to_dict(), indent=2) + "\n").encode()
-    if "report.html" in files:
-        try:
-            from robocal.viz.report import report_with_evaluations   # matplotlib: the optional [viz] extra
-            files["report.html"] = report_with_evaluations(folder, [report.to_dict()])
-        except ImportError as exc:
-            print(f"robocal: report.html not updated ({exc.name} is not installed)", file=sys.stderr)
-    write_folder(folder, files, force=True)
-    print(f"\nWrote {folder / name}")
+    path, note = write_evaluation(folder, report)
+    if note:
+        print(f"robocal: {note}", file=sys.stderr)
+    print(f"\nWrote {path}")
     return 0
 
 

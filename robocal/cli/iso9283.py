@@ -7,9 +7,9 @@ from pathlib import Path
 
 from robocal.errors import InputError
 from robocal.estimation.iso9283 import summary
-from robocal.cli.calibrate import check_data
-from robocal.workflows.iso9283 import iso9283_from_setup, iso9283_section
-from robocal.workflows.config import load_config
+from robocal.workflows.calibrate import check_units
+from robocal.workflows.iso9283 import check_iso9283, iso9283_from_setup
+from robocal.workflows.setup import load_config
 from robocal.io.text_files import write_atomic
 
 
@@ -27,13 +27,14 @@ def add_parser(subparsers):
 
 def cmd_iso9283(args) -> int:
     """Print the figures (mm, mrad); write JSON with -o. The CLI owns the terminal."""
-    out = Path(args.output).resolve() if getattr(args, "output", None) else None
-    if out is not None and out.exists() and not getattr(args, "force", False):
+    out = Path(args.output).resolve() if args.output else None
+    if out is not None and out.exists() and not args.force:
         raise InputError("file exists; pass --force to replace it", source=str(out))
     setup = load_config(args.config)
-    iso9283_section(setup)
-    check_data(setup, getattr(args, "allow_failed", False))
-    run = iso9283_from_setup(setup, getattr(args, "parameters", None))
+    check_iso9283(setup)
+    for note in check_units(setup, args.allow_failed):
+        print(f"robocal: {note}", file=sys.stderr)
+    run = iso9283_from_setup(setup, args.parameters)
     if run.result is not None and not run.result.success:
         print(f"robocal: the calibration is {run.result.status}; calibrated figures are unreliable",
               file=sys.stderr)
@@ -41,6 +42,6 @@ def cmd_iso9283(args) -> int:
     print(summary([run.nominal, run.calibrated]))
     if out is not None:
         write_atomic(out, (json.dumps(run.to_dict(), indent=2) + "\n").encode())
-        if not getattr(args, "quiet", False):
+        if not args.quiet:
             print(f"\nWrote {out}")
     return 0

@@ -13,7 +13,7 @@ def cmd_plan(args) -> int:
     plan = plan_from_config(args.config, seed=args.seed, scheduler=args.scheduler, workers=args.workers)
     files = write_plan(plan, args.output, force=args.force)
     print(summary(plan))
-    if not getattr(args, "quiet", False):
+    if not args.quiet:
         print("\nWrote " + ", ".join(str(f) for f in files.values()))
     if not plan.selection.identifiability.ok:
         print("\nrobocal: the chosen poses leave parameters undetermined; increase plan.N or widen the "

@@ -6,7 +6,7 @@ from robocal.workflows.simulate import simulate_dataset
 
 def cmd_simulate(args) -> int:
     written = simulate_dataset(args.config, args.output, seed=args.seed, force=args.force)
-    if not getattr(args, "quiet", False):
+    if not args.quiet:
         print("Wrote " + ", ".join(str(p) for p in written))
     return 0
 

@@ -15,7 +15,6 @@ from robocal.dynamics.generator import PathGenerator, Setpoint
 from robocal.dynamics.identification import (DynamicIdentificationResult, PayloadResult, Segment, identify_dynamics,
                              identify_payload)
 from robocal.dynamics.instructions import MotionInstruction, MotionParams, movecf, movejf, movelf
-from robocal.dynamics.inverse_kinematics import IKFailure, solve_ik
 from robocal.dynamics.joint_state import JointState, from_measurements, from_setpoints
 from robocal.dynamics.limits import project_limits
 from robocal.dynamics.path import CircularPath, JointPath, LinearPath, SplinePath
@@ -30,7 +29,7 @@ __all__ = [
     "from_setpoints", "ExternalForceEstimator", "ExternalForceEstimate", "WrenchMapper", "WrenchEstimate",
     "ForceSensorSource", "payload_inertia", "with_payload", "LinearPath", "JointPath", "CircularPath",
     "SplinePath", "project_limits", "TangentialForceRegulator", "MotionParams", "MotionInstruction", "movejf",
-    "movelf", "PathGenerator", "Setpoint", "solve_ik", "IKFailure", "RobotSimulator", "servo_gains", "Wall",
+    "movelf", "PathGenerator", "Setpoint", "RobotSimulator", "servo_gains", "Wall",
     "ViscousLoad", "ConstantForce", "Environment", "FourierTrajectory", "fourier_excitation", "Segment",
     "identify_dynamics", "identify_payload", "DynamicIdentificationResult", "PayloadResult",
 ]

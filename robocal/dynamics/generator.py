@@ -16,11 +16,11 @@ import pinocchio as pin
 
 from robocal.errors import InputError
 from robocal.dynamics.force_filter import ForceFilter
-from robocal.dynamics.instructions import MotionInstruction
-from robocal.dynamics.inverse_kinematics import solve_ik
+from robocal.dynamics.instructions import MotionInstruction, tick_ik_options
 from robocal.dynamics.joint_projection import check_position_limits, joint_derivatives
 from robocal.dynamics.limits import project_limits
 from robocal.dynamics.regulator import TangentialForceRegulator
+from robocal.model.inverse_kinematics import solve_ik
 
 
 @dataclass
@@ -97,7 +97,7 @@ class PathGenerator:
         if ins.kind == "joint":
             self.q_des = ins.path.q_of_s(st.s)
         else:
-            self.q_des = solve_ik(self.model, self.data, ins.frame_id, ins.path.pose(st.s), self.q_des,
-                                  self.ik_tolerance)
+            self.q_des = solve_ik(self.model, ins.frame_id, ins.path.pose(st.s), self.q_des, data=self.data,
+                                  **tick_ik_options(self.ik_tolerance))
             check_position_limits(self.model, self.q_des, st.s)   # between the validated samples
         return Setpoint(self.q_des.copy(), st.s, st.sd, st.sdd, eps, sd_max, sdd_max, tangential)

@@ -15,7 +15,7 @@ import numpy as np
 import pinocchio as pin
 
 from robocal.errors import InputError
-from robocal.dynamics.inverse_kinematics import IKFailure, solve_ik
+from robocal.model.inverse_kinematics import IKFailure, solve_ik
 from robocal.dynamics.joint_projection import check_position_limits
 from robocal.dynamics.limits import check_c
 from robocal.dynamics.path import CartesianPath, JointPath, LinearPath
@@ -147,7 +147,19 @@ def check_reachable(model: pin.Model, frame_id: int, path, q_start: np.ndarray, 
     q = np.array(q_start, float)
     for s in np.linspace(0, 1, check_points):
         try:
-            q = solve_ik(model, data, frame_id, path.pose(s), q, ik_tolerance)
+            q = solve_ik(model, frame_id, path.pose(s), q, data=data, **tick_ik_options(ik_tolerance))
         except IKFailure as exc:
             raise InputError(f"the path is not reachable at s = {s:.3f}: {exc.reason}", field="position") from exc
         check_position_limits(model, q, s)
+
+
+#: rad per IK iteration: a path tick never jumps to another branch
+TICK_MAX_STEP = 0.5
+
+
+def tick_ik_options(tolerance: float) -> dict:
+    """solve_ik's settings for a motion tick: |log6(target^-1 M)| <= tolerance (2-norm, m and rad), steps capped
+    at TICK_MAX_STEP, a tiny damping instead of the singularity check (docs/dynamics.md)."""
+    # solve_ik stops on the largest of the 6 components; below tolerance / sqrt(6) the 2-norm is within it
+    return {"tol": tolerance / np.sqrt(6.0), "max_iterations": 50, "singular_rcond": None, "damping": 1e-12,
+            "max_step": TICK_MAX_STEP}

@@ -1,12 +1,12 @@
 """The robot model: URDF in and out, named parameters, kinematics at a parameter vector, closed chains, IK."""
 from robocal.model.dh_urdf import DHRow, write_dh_urdf
-from robocal.model.inverse_kinematics import IKFailure, frame_ik, reading_ik
+from robocal.model.inverse_kinematics import IKFailure, solve_ik
 from robocal.model.kinematics import ModelState, SampleState
 from robocal.model.loops import LoopSet, assemble
 from robocal.model.parameters import Parameter, ParameterSet, robot_parameters
 from robocal.model.robot import Robot, load_example, load_urdf
 from robocal.model.urdf_export import calibrated_urdf, export_urdf
 
-__all__ = ["DHRow", "write_dh_urdf", "IKFailure", "frame_ik", "reading_ik", "ModelState", "SampleState", "LoopSet",
+__all__ = ["DHRow", "write_dh_urdf", "IKFailure", "solve_ik", "ModelState", "SampleState", "LoopSet",
            "assemble", "Parameter", "ParameterSet", "robot_parameters", "Robot", "load_example", "load_urdf",
            "calibrated_urdf", "export_urdf"]

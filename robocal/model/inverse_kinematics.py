@@ -9,9 +9,9 @@ every accepted step lower the error; an optional cap limits the largest joint ch
 caller's `retract` may clip to joint limits. Failure is an exception that says what did not converge,
 for which sample, and how far from the target it stopped.
 
-Callers: `frame_ik` (a frame of a Pinocchio model, serial or closed chain), `reading_ik` (the joint
-readings of a calibrated robocal ModelState), robocal.model.loops.assemble (closure rows only) and
-robocal.dynamics.inverse_kinematics.solve_ik (the motion generator's per-tick IK).
+Callers: `solve_ik`, the one IK entry point (a frame of a Pinocchio model, serial or closed chain, or the
+joint readings of a calibrated robocal ModelState; the motion generator's per-tick IK and the laser/PSD plans
+use it), and robocal.model.loops.assemble (closure rows only).
 """
 from __future__ import annotations
 
@@ -113,12 +113,22 @@ def _check_regular(a: np.ndarray, rcond: float, label: str, what: str) -> None:
             "readings")
 
 
-def frame_ik(model: pin.Model, frame_id: int, target: pin.SE3, q_guess=None, loops=None,
-             data: pin.Data | None = None, sample=None, tol: float = 1e-12, max_iterations: int = 100,
-             singular_rcond: float | None = 1e-6, damping: float = 0.0, max_step: float = np.inf) -> np.ndarray:
-    """q (nq,) of `model` with frame `frame_id` at `target` (world SE3), warm-started at q_guess (neutral by
-    default). With `loops` (a robocal LoopSet) every closure and coupling holds too and all joints move;
-    read the actuators with loops.actuated_values(q). Raises IKFailure."""
+def solve_ik(robot, frame, target: pin.SE3, seed=None, *, loops=None, data: pin.Data | None = None,
+             lower=None, upper=None, tol: float = 1e-12, max_iterations: int = 100, max_step: float = np.inf,
+             damping: float = 0.0, singular_rcond: float | None = 1e-6, sample=None) -> np.ndarray:
+    """The one inverse kinematics of robocal: the joints that put `frame` at `target` (world SE3), warm-started
+    at `seed`; the error is log6(target^-1 M) and the solver stops when every component is below `tol`.
+
+    robot: a Pinocchio model (frame: its frame id or name; returns q (nq,), seed default neutral; with `loops`,
+      a robocal LoopSet, every closure and coupling holds too and all joints move - read the actuators with
+      loops.actuated_values(q)), or a robocal ModelState (frame: a name; returns the joint readings of the
+      calibrated model, within [lower, upper]).
+    max_step caps the largest joint change per step (rad or m): it keeps the seed's branch, which keeps a sweep
+    or a motion tick continuous. Raises IKFailure when the target is not reached."""
+    if hasattr(robot, "sample"):
+        return _reading_ik(robot, frame, target, seed, lower, upper, tol, max_iterations, max_step, damping)
+    model = robot
+    frame_id = model.getFrameId(frame) if isinstance(frame, str) else int(frame)
     data = model.createData() if data is None else data
 
     def rows(q):
@@ -134,25 +144,22 @@ def frame_ik(model: pin.Model, frame_id: int, target: pin.SE3, q_guess=None, loo
         e, je = pose_error(data.oMf[frame_id], target, pin.getFrameJacobian(model, data, frame_id, LOCAL))
         return np.concatenate([c, e]), np.vstack([jc, je])
 
-    q0 = pin.neutral(model) if q_guess is None else np.array(q_guess, dtype=float)
+    q0 = pin.neutral(model) if seed is None else np.array(seed, dtype=float)
     return damped_newton(rows, q0, lambda q, v: pin.integrate(model, q, v), tol=tol,
                          max_iterations=max_iterations, damping=damping, max_step=max_step,
                          singular_rcond=singular_rcond, sample=sample, failure=IKFailure)
 
 
-def reading_ik(ms, frame: str, target: pin.SE3, seed, lower=None, upper=None, tol: float = 1e-12,
-               max_iterations: int = 200, max_step: float = 0.3) -> np.ndarray:
-    """Joint readings (n_read,) of the calibrated model `ms` (a robocal ModelState) with `frame` at
-    `target`, within [lower, upper]. Steps of at most max_step rad keep the seed's branch, which is what
-    keeps a sweep continuous. Raises IKFailure."""
+def _reading_ik(ms, frame: str, target: pin.SE3, seed, lower, upper, tol, max_iterations, max_step, damping):
+    """solve_ik on a ModelState: the calibrated model's joint readings, clipped to [lower, upper]."""
     n = len(ms.joint_names)
     lower = np.full(n, -np.inf) if lower is None else np.asarray(lower, dtype=float)
     upper = np.full(n, np.inf) if upper is None else np.asarray(upper, dtype=float)
+    seed = np.zeros(n) if seed is None else np.asarray(seed, dtype=float)
 
     def rows(v):
         s = ms.sample(v)
         return pose_error(s.pose(frame), target, s.frame_joint_jacobian(frame))
 
-    return damped_newton(rows, np.clip(np.asarray(seed, dtype=float), lower, upper),
-                         lambda v, dv: np.clip(v + dv, lower, upper), tol=tol, max_iterations=max_iterations,
-                         max_step=max_step, failure=IKFailure)
+    return damped_newton(rows, np.clip(seed, lower, upper), lambda v, dv: np.clip(v + dv, lower, upper), tol=tol,
+                         max_iterations=max_iterations, max_step=max_step, damping=damping, failure=IKFailure)

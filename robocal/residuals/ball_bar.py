@@ -12,6 +12,9 @@ from robocal.residuals.base import Aux, Residual, Term, distance_terms, point_ja
 
 
 class BallBarResidual(Residual):
+    """Double ball bar: distance from a ball on the tool to a ball fixed in the cell. The error model,
+    parameters and columns: this module's docstring."""
+
     type_name = "ball_bar"
 
     def __init__(self, name, frame, samples, measurements, centre, offset=0.0, centre_unknown=True,

@@ -13,6 +13,9 @@ from robocal.residuals.base import Aux, Residual, Term, basis_from_normal, point
 
 
 class CylinderResidual(Residual):
+    """A probe tip touching a cylinder: inside a bore (hole) or around a pin. The error model, parameters and
+    columns: this module's docstring."""
+
     type_name = "cylinder"
     observed = False
 

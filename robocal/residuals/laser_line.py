@@ -52,6 +52,9 @@ def beam_reference(robot, frame: str, direction) -> tuple[int, np.ndarray]:
 
 
 class LaserLineResidual(Residual):
+    """A laser beam on a frame passing through a fixed, unknown point (laser + position-sensitive detector). The
+    error model, parameters and columns: this module's docstring."""
+
     type_name = "laser_line"
     observed = False
 

@@ -16,6 +16,9 @@ from robocal.residuals.base import (Aux, BatchTerms, Residual, Term, basis_from_
 
 
 class PlaneResidual(Residual):
+    """A probe tip touching a plane (reference surface, jig face). The error model, parameters and columns: this
+    module's docstring."""
+
     type_name = "plane"
     observed = False
 

@@ -13,6 +13,9 @@ from robocal.residuals.base import BatchTerms, Residual, Term, point_jacobian, v
 
 
 class PointResidual(Residual):
+    """3D position of a point on a link (tracker reflector, mocap marker, probe centre). The error model,
+    parameters and columns: this module's docstring."""
+
     type_name = "point"
 
     def __init__(self, name, frame, samples, measurements, point=(0.0, 0.0, 0.0), point_unknown=False,

@@ -14,6 +14,9 @@ from robocal.residuals.base import BatchTerms, Residual, Term
 
 
 class PoseResidual(Residual):
+    """6D pose of a frame (laser tracker with a 6D probe, mocap rigid body, dial-gauge jig). The error model,
+    parameters and columns: this module's docstring."""
+
     type_name = "pose"
 
     def __init__(self, name, frame, samples, measurements, sigma=(1e-4, 1e-4), weights=None, columns=None):

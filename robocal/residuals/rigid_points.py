@@ -13,6 +13,9 @@ from robocal.residuals.base import Residual, Term, point_jacobian, vector_aux
 
 
 class RigidPointsResidual(Residual):
+    """Several points of one rigid body in one sample (a mocap cluster, a tracker's multi-reflector tool). The
+    error model, parameters and columns: this module's docstring."""
+
     type_name = "rigid_points"
 
     def __init__(self, name, frame, samples, measurements, points, labels=None, points_unknown=False,

@@ -11,6 +11,9 @@ from robocal.residuals.base import Aux, Residual, Term, distance_terms, point_ja
 
 
 class SphereResidual(Residual):
+    """A probe tip touching a sphere (reference ball) from outside. The error model, parameters and columns:
+    this module's docstring."""
+
     type_name = "sphere"
     observed = False
 

@@ -19,6 +19,9 @@ from robocal.residuals.base import Residual, Term
 
 
 class StrutIKResidual(Residual):
+    """Strut lengths by inverse kinematics: the platform is put where it was measured, no loop is closed. The
+    error model, parameters and columns: this module's docstring."""
+
     type_name = "strut_ik"
     observed = False
 

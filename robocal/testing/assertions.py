@@ -21,7 +21,7 @@ import pinocchio as pin
 from scipy import stats
 
 from robocal.design.simulate import perturb, random_configurations, simulate_measurements
-from robocal.workflows.config import load_config
+from robocal.workflows.setup import load_config
 from robocal.errors import InputError, RobocalError
 from robocal.estimation.calibrate import CalibrationOptions, calibrate
 from robocal.estimation.identifiability import select_base_parameters

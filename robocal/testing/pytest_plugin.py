@@ -10,7 +10,7 @@ Options
 
 Fixtures
   robocal_dataset          Path of --robocal-dataset (the test is skipped when it is not given)
-  robocal_setup            robocal.workflows.config.Setup of that dataset (robot from --robocal-urdf if given)
+  robocal_setup            robocal.workflows.setup.Setup of that dataset (robot from --robocal-urdf if given)
   robocal_urdf             Path of --robocal-urdf, or None
   robocal_robot            Robot from @pytest.mark.robocal_robot("ur5" | path) or --robocal-robot
   robocal_load_robot       function: URDF path or example name -> Robot

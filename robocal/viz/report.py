@@ -203,7 +203,9 @@ def report_with_evaluations(folder: str | Path, new: list[dict] | None = None, m
     iso_path = folder / "iso9283.json"
     iso = json.loads(iso_path.read_text(encoding="utf-8")) if iso_path.is_file() else None
     found = {p.name: json.loads(p.read_text(encoding="utf-8")) for p in sorted(folder.glob("evaluation_*.json"))}
-    evaluations = [e for e in found.values() if all(e.get("data") != n.get("data") for n in new or [])]
+    def key(e):        # one evaluation per session and refit choice
+        return e.get("data"), bool(e.get("refitted"))
+    evaluations = [e for e in found.values() if all(key(e) != key(n) for n in new or [])]
     result["evaluations"] = evaluations + list(new or [])
     return report_bytes(result, scene, meshes=meshes, iso9283=iso)
 

@@ -1,4 +1,4 @@
-"""A measurement block of the calibration YAML -> a residual, with its columns and sigma in SI.
+"""A measurement block of the calibration config -> its residual class, its sigma, and the residual it builds.
 
 Units rule (docs/config.md, "Units"): measurement columns are in `data.units`, and so is a block's
 `sigma` - a length sigma in the length unit, an angle sigma in the angle unit - unless it is written
@@ -11,7 +11,9 @@ import re
 
 import numpy as np
 
-from robocal.workflows.config_keys import FILLED_BY_CONFIG, PYTHON_ONLY_TYPES, Cfg
+from robocal.errors import InputError
+from robocal.workflows.config_keys import PYTHON_ONLY_TYPES, Cfg
+from robocal.workflows.config_types import MeasurementConfig, Units
 from robocal.io.tables import ANGLE_UNITS, LENGTH_UNITS, Table
 from robocal.residuals import REGISTRY
 
@@ -34,7 +36,7 @@ def residual_class(block: Cfg):
     return REGISTRY[res_type]
 
 
-def sigma_value(value, node: Cfg, key: str, units: dict[str, str]) -> float:
+def sigma_value(value, node: Cfg, key: str, units: Units) -> float:
     """One sigma in data units: a positive number, or a labelled string converted to data units."""
     if isinstance(value, str):
         m = _LABELLED.match(value)
@@ -47,7 +49,7 @@ def sigma_value(value, node: Cfg, key: str, units: dict[str, str]) -> float:
             raise node.error(f"'{m.group(1)}' is not a number", key) from None
         factor, kind = SIGMA_LABELS[m.group(2)]
         si_unit = LENGTH_UNITS if kind == "length" else ANGLE_UNITS
-        value = number * factor / si_unit[units[kind]]
+        value = number * factor / si_unit[getattr(units, kind)]
     elif isinstance(value, bool) or not isinstance(value, (int, float)):
         raise node.error(f"expected a number, got {type(value).__name__} ({value!r})", key)
     if not (np.isfinite(value) and value > 0):
@@ -55,38 +57,38 @@ def sigma_value(value, node: Cfg, key: str, units: dict[str, str]) -> float:
     return float(value)
 
 
-def sigma_argument(raw, node: Cfg, units: dict[str, str]):
-    """The constructor's sigma (in data units) of a block's `sigma` (number, labelled string or mapping)."""
+def sigma_argument(raw, node: Cfg, units: Units):
+    """A block's `sigma` in data units: a number (or labelled string), or a mapping -> (position, orientation)."""
     if isinstance(raw, dict):
         sub = node.child("sigma")
         return tuple(sigma_value(raw.get(k, 1e-4), sub, k, units) for k in ("position", "orientation"))
     return sigma_value(raw, node, "sigma", units)
 
 
-def residual_from_block(cls, block: Cfg, tab: Table, rows, sample_idx, units: dict[str, str], sigma=None):
-    """The residual of one block; sigma (optional) replaces the block's own (robocal plan's noise)."""
-    reserved = ("type", "csv", "where", "columns", "samples")   # samples: used by `robocal simulate` only
-    kwargs = {k: v for k, v in block.value.items() if k not in reserved and k not in FILLED_BY_CONFIG}
-    name = block.get("name", f"{block.value['type']}{block.path[block.path.index('[') + 1:-1]}", types=str)
+def accepts_measurements(cls) -> bool:
+    """Whether a measurement type reads columns of measured values (pose, point, ...) or only contacts."""
+    return "measurements" in inspect.signature(cls.__init__).parameters
+
+
+def residual_from_block(cls, block: MeasurementConfig, source: str, tab: Table, rows, sample_idx, units: Units,
+                        sigma=None):
+    """The residual of one block of the config `source`; sigma (optional, data units) replaces the block's own
+    (robocal plan's noise)."""
+    kwargs = dict(block.settings)
+    sigma = block.sigma if sigma is None else sigma
     if sigma is not None:
-        kwargs["sigma"] = sigma_argument(sigma, Cfg({"sigma": sigma}, "plan.noise", block.source), units)
-    elif "sigma" in kwargs:
-        kwargs["sigma"] = sigma_argument(kwargs["sigma"], block, units)
-    accepts_measurements = "measurements" in inspect.signature(cls.__init__).parameters
-    if accepts_measurements:
-        columns = block.get("columns", required=True, types=list)
-        kinds = cls.column_kinds(len(columns))
-        if len(kinds) != len(columns):
-            raise block.error(f"{cls.type_name} needs {len(kinds)} columns, got {len(columns)}", "columns")
-        data = [tab.column(str(c), k, units[k] if k else None, rows) for c, k in zip(columns, kinds)]
+        kwargs["sigma"] = sigma
+    if accepts_measurements(cls):
+        kinds = cls.column_kinds(len(block.columns))
+        data = [tab.column(c, k, getattr(units, k) if k else None, rows) for c, k in zip(block.columns, kinds)]
         kwargs["measurements"] = np.column_stack(data)
-        kwargs["columns"] = [str(c) for c in columns]
+        kwargs["columns"] = list(block.columns)
     try:
-        res = cls(name=name, samples=sample_idx, **kwargs)
+        res = cls(name=block.name, frame=block.frame, samples=sample_idx, **kwargs)
     except (TypeError, ValueError) as exc:
-        raise block.error(getattr(exc, "reason", str(exc))) from None
-    if "sigma" in kwargs or sigma is not None:
+        raise InputError(getattr(exc, "reason", str(exc)), source=source, field=block.path) from None
+    if sigma is not None:
         # the sigma numbers are in data units: each row to SI by its quantity
-        scale = {"length": LENGTH_UNITS[units["length"]], "angle": ANGLE_UNITS[units["angle"]]}
+        scale = {"length": LENGTH_UNITS[units.length], "angle": ANGLE_UNITS[units.angle]}
         res.sigma = res.sigma * np.array([scale.get(u, 1.0) for u in res.row_units])
     return res

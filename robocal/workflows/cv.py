@@ -1,13 +1,25 @@
-"""`robocal cv`: the folds of a config's samples (K-fold, leave-one-out, leave-one-group-out)."""
+"""`robocal cv`: cross-validate a config on folds of its samples (K-fold, leave-one-out, leave-one-group-out)."""
 from __future__ import annotations
+
+from pathlib import Path
 
 import numpy as np
 
 from robocal.errors import InputError
-from robocal.estimation.cross_validation import kfold
+from robocal.estimation.cross_validation import CVTable, cv_table, kfold
+from robocal.workflows.calibrate import check_units
+from robocal.workflows.setup import load_config
 
 
-# ---------------------------------------------------------------- cross-validation
+def run_cv(config: str | Path, folds: int | None = None, loo: bool = False, group: str | None = None,
+           allow_failed: bool = False) -> tuple[CVTable, str, list[str]]:
+    """(the CV table, how the folds were made, notes) of a config; its data pass the units check first."""
+    setup = load_config(config)
+    notes = check_units(setup, allow_failed)
+    fold_list, label = make_folds(setup, folds, loo, group)
+    return cv_table(setup.problem, fold_list, setup.options), label, notes
+
+
 def group_folds(setup, column: str) -> list[np.ndarray]:
     """Leave-one-group-out folds: the samples sharing a value of `column` of the data CSV, in order of first
     appearance. A sample's group is read from the row it came from."""
@@ -23,6 +35,7 @@ def group_folds(setup, column: str) -> list[np.ndarray]:
         raise InputError(f"column '{column}' holds a single group: nothing to hold out", field=column)
     labels = np.array(labels)
     return [np.flatnonzero(labels == g) for g in groups]
+
 
 def make_folds(setup, folds: int | None = None, loo: bool = False, group: str | None = None):
     """(folds, description): `group` column -> leave-one-group-out, `loo` -> leave-one-out, else K interleaved

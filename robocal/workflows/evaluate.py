@@ -21,63 +21,36 @@ from robocal.estimation.cross_validation import RANGE_MARGIN, range_excess
 from robocal.estimation.registration import fit_subset
 from robocal.estimation.prediction_errors import UNITS, norm_errors, norm_rms, term_errors
 from robocal.io.tables import read_csv
-from robocal.io.yaml_files import read_yaml
-from robocal.workflows.config import Setup, setup_from_config
+from robocal.workflows.config_read import read_config, with_parameters
+from robocal.workflows.config_types import CalibrationConfig
+from robocal.workflows.setup import Setup, build_setup
+from robocal.io.output_folder import write_folder
 from robocal.workflows.data_check import units_findings
+from robocal.workflows.outputs import apply_result, load_result
 
 
-def setup_for_data(config: str | Path, csv: str | Path | None = None, parameters: dict | None = None) -> Setup:
-    """A config's problem, optionally on another CSV file of the same columns and with changed parameters.
+def setup_for_data(config, csv: str | Path | None = None, parameters: dict | None = None) -> Setup:
+    """A config's problem (a YAML path or a CalibrationConfig), optionally on another CSV file of the same
+    columns and with changed parameters.
 
     csv replaces `data.csv` and every block's `csv` (absolute, or relative to the config's folder);
-    parameters: keys merged into the config's `parameters` section (e.g. {"priors": {...}}).
+    parameters: keys of the `parameters:` section replaced, in their YAML form (e.g. {"preset": "offsets"}).
     """
-    path = Path(config).resolve()
-    raw = read_yaml(path)
-    if parameters and isinstance(raw, dict):
-        raw = {**raw, "parameters": {**(raw.get("parameters") or {}), **parameters}}
-    table = None if csv is None else read_csv((path.parent / csv).resolve())
-    return setup_from_config(raw, path.parent, str(path), table=table)
-
-def portable_config(config: str | Path, parameters: dict | None = None) -> bytes:
-    """The config's YAML with its file paths made absolute (robot.urdf, package_dirs, every csv) and
-    `parameters` merged in: stored in an output folder, it rebuilds the same model from there
-    (`robocal evaluate`)."""
-    path = Path(config).resolve()
-    raw = read_yaml(path)            # a fresh parse: edited below, never shared
-    here = path.parent
-    robot = raw.get("robot") or {}
-    if "urdf" in robot:
-        robot["urdf"] = str((here / robot["urdf"]).resolve())
-    if robot.get("package_dirs"):
-        robot["package_dirs"] = [str((here / d).resolve()) for d in robot["package_dirs"]]
-    if (raw.get("data") or {}).get("csv"):
-        raw["data"]["csv"] = str((here / raw["data"]["csv"]).resolve())
-    for block in raw.get("measurements") or []:
-        if isinstance(block, dict) and block.get("csv"):
-            block["csv"] = str((here / block["csv"]).resolve())
+    config = config if isinstance(config, CalibrationConfig) else read_config(config)
     if parameters:
-        raw["parameters"] = {**(raw.get("parameters") or {}), **parameters}
-    return yaml.safe_dump(raw, sort_keys=False).encode()
+        config = with_parameters(config, parameters)
+    table = None if csv is None else read_csv((config.base_dir / csv).resolve())
+    return build_setup(config, table=table)
 
 
-# ---------------------------------------------------------------- evaluate
-def load_result(result_dir: str | Path) -> tuple[dict, Path]:
-    path = Path(result_dir) / "result.json"
-    if not path.is_file():
-        raise InputError("no result.json: not a robocal output folder", source=str(path))
-    try:
-        return json.loads(path.read_text(encoding="utf-8")), path
-    except json.JSONDecodeError as exc:
-        raise InputError(f"not valid JSON: {exc.msg}", source=str(path), row=exc.lineno) from exc
+def portable_config(config, parameters: dict | None = None) -> bytes:
+    """The config's YAML with its file paths absolute and `parameters` replaced: stored in an output folder,
+    it rebuilds the same model from there (`robocal evaluate`)."""
+    config = config if isinstance(config, CalibrationConfig) else read_config(config)
+    if parameters:
+        config = with_parameters(config, parameters)
+    return yaml.safe_dump(config.to_dict(), sort_keys=False).encode()
 
-def apply_result(params, result: dict, source: Path) -> None:
-    """Set `params` to a result's values; every parameter of the result must exist here (same robot)."""
-    for i, p in enumerate(result.get("parameters", [])):
-        if p.get("name") not in params:
-            raise InputError(f"parameter '{p.get('name')}' is not in this config's model: the result comes from "
-                             "another robot or model", source=str(source), field=f"parameters[{i}].name")
-        params[p["name"]].value = float(p["value"])
 
 @dataclass
 class EvaluationReport:
@@ -91,6 +64,7 @@ class EvaluationReport:
         return {"data": self.data, "refitted": self.refitted, "blocks": self.blocks, "per_sample": self.per_sample,
                 "outside_training_range": self.outside,
                 "units": "norm of the 3D error per point (mm) or orientation (mrad)"}
+
 
 def evaluate_result(result_dir, csv, config, refit: list[str] | None = None,
                     options: CalibrationOptions | None = None) -> EvaluationReport:
@@ -132,3 +106,26 @@ def evaluate_result(result_dir, csv, config, refit: list[str] | None = None,
            for i in np.flatnonzero(outside)]
     return EvaluationReport(str(Path(csv).resolve()), list(dict.fromkeys(refitted)), blocks,
                             [per_sample[k] for k in sorted(per_sample)], far)
+
+
+def evaluation_name(data: str | Path, refitted: list[str]) -> str:
+    """The file of one evaluation: one per session and refit choice (a refitted run never replaces a plain one)."""
+    return f"evaluation_{Path(data).stem}" + ("_refit" if refitted else "") + ".json"
+
+
+def write_evaluation(folder: str | Path, report: EvaluationReport) -> tuple[Path, str]:
+    """Add the evaluation file to the output folder (and its report.html, when the [viz] extra is there),
+    atomically; returns (its path, a note when report.html could not be updated, else "")."""
+    folder = Path(folder).resolve()
+    name = evaluation_name(report.data, report.refitted)
+    files = {p.name: p.read_bytes() for p in folder.iterdir() if p.is_file()}
+    files[name] = (json.dumps(report.to_dict(), indent=2) + "\n").encode()
+    note = ""
+    if "report.html" in files:
+        try:
+            from robocal.viz.report import report_with_evaluations   # matplotlib: the optional [viz] extra
+            files["report.html"] = report_with_evaluations(folder, [report.to_dict()])
+        except ImportError as exc:
+            note = f"report.html not updated ({exc.name} is not installed)"
+    write_folder(folder, files, force=True)
+    return folder / name, note

@@ -18,17 +18,16 @@ result.json. Attained poses under a model are predicted as in robocal.estimation
 """
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
 from robocal.errors import InputError
 from robocal.estimation.calibrate import calibrate
 from robocal.estimation.iso9283 import Iso9283Figures, group_visits, iso9283_figures, model_attained, pose6
-from robocal.workflows.config import load_config
-from robocal.workflows.config_keys import Cfg
+from robocal.workflows.config_types import Iso9283Config
+from robocal.workflows.outputs import apply_result, load_result
+from robocal.workflows.setup import load_config
 from robocal.model.kinematics import ModelState
 
 
@@ -45,35 +44,28 @@ class Iso9283Run:
                 "calibration_status": None if self.result is None else self.result.status}
 
 
-def iso9283_section(setup) -> Cfg:
-    """The config's `iso9283:` section, checked before any fitting so a mistake costs no time."""
-    sec = Cfg(setup.raw.get("iso9283"), "iso9283", setup.source)
-    if sec.value is None:
-        raise sec.error("the config needs an 'iso9283' section (pose_id, measurement, commanded)")
-    sec.require_mapping()
-    sec.get("pose_id", required=True, types=str)
-    cols = sec.get("commanded", types=list)
-    if cols is not None and len(cols) != 7:
-        raise sec.error(f"commanded needs 7 columns (x y z qx qy qz qw), got {len(cols)}", "commanded")
-    pairs = sec.get("distance_pairs", types=list)
-    if pairs is not None and not all(isinstance(p, list) and len(p) == 2 for p in pairs):
-        raise sec.error("expected a list of [pose, pose] pairs", "distance_pairs")
-    _pose_block(setup.problem, sec)
+def check_iso9283(setup) -> Iso9283Config:
+    """The config's `iso9283:` section, checked against the data before any fitting so a mistake costs no
+    time: its pose block exists."""
+    sec = setup.config.iso9283
+    if sec is None:
+        raise InputError("the config needs an 'iso9283' section (pose_id, measurement, commanded)",
+                         source=setup.source, field="iso9283")
+    pose_block(setup, sec)
     return sec
 
 
-def _pose_block(problem, sec):
-    poses = [r for r in problem.residuals if r.type_name == "pose"]
-    name = sec.get("measurement", types=str)
-    if name is None:
+def pose_block(setup, sec: Iso9283Config):
+    poses = [r for r in setup.problem.residuals if r.type_name == "pose"]
+    if sec.measurement is None:
         if len(poses) != 1:
-            raise sec.error(f"name the pose block to use ({', '.join(r.name for r in poses) or 'none found'})",
-                            "measurement")
+            raise InputError(f"name the pose block to use ({', '.join(r.name for r in poses) or 'none found'})",
+                             source=setup.source, field="iso9283.measurement")
         return poses[0]
-    hit = [r for r in poses if r.name == name]
+    hit = [r for r in poses if r.name == sec.measurement]
     if not hit:
-        raise sec.error(f"no pose block named '{name}' (pose blocks: {', '.join(r.name for r in poses)})",
-                        "measurement")
+        raise InputError(f"no pose block named '{sec.measurement}' (pose blocks: "
+                         f"{', '.join(r.name for r in poses)})", source=setup.source, field="iso9283.measurement")
     return hit[0]
 
 
@@ -90,8 +82,8 @@ def _cells(setup, res, column: str):
     return out
 
 
-def _commanded_columns(sec, setup, res, terms):
-    cols = sec.get("commanded", types=list)
+def _commanded_columns(sec: Iso9283Config, setup, res, terms):
+    cols = sec.commanded
     if cols is None:
         return None
     length_unit = setup.units["length"]
@@ -118,11 +110,12 @@ def iso9283_from_config(config, parameters=None) -> Iso9283Run:
 def iso9283_from_setup(setup, parameters=None) -> Iso9283Run:
     """As iso9283_from_config for a setup already built: the model is fitted here, or its parameters come
     from a previous result.json (`parameters`)."""
-    iso9283_section(setup)
+    check_iso9283(setup)
     nominal = setup.problem.params.copy()
     result = None
     if parameters is not None:
-        _apply_result(setup.problem.params, Path(parameters))
+        doc, source = load_result(parameters)
+        apply_result(setup.problem.params, doc, source)
     else:
         result = calibrate(setup.problem, setup.options, source=setup.source)
     return iso9283_run(setup, nominal, setup.problem.params, result)
@@ -131,10 +124,10 @@ def iso9283_from_setup(setup, parameters=None) -> Iso9283Run:
 def iso9283_run(setup, nominal_params, calibrated_params, result=None) -> Iso9283Run:
     """ISO 9283 figures of a setup's `iso9283:` rows under the nominal and the calibrated parameters
     (`robocal calibrate` passes the parameters it has just fitted; nothing is read again)."""
-    sec = iso9283_section(setup)
+    sec = check_iso9283(setup)
     problem = setup.problem
-    res = _pose_block(problem, sec)
-    id_col = sec.get("pose_id", required=True, types=str)
+    res = pose_block(setup, sec)
+    id_col = sec.pose_id
     cells = _cells(setup, res, id_col)
     terms = [k for k, (_, _, text) in enumerate(cells) if text]
     if not terms:
@@ -151,24 +144,10 @@ def iso9283_run(setup, nominal_params, calibrated_params, result=None) -> Iso928
     fk = {name: {pid: ms.sample(q).pose(res.frame) for pid, q in q_c.items()}
           for name, ms in (("nominal", nominal_ms), ("calibrated", calibrated_ms))}
     commanded = _commanded_columns(sec, setup, res, terms) or [fk["nominal"][pid] for pid in ids]
-    pairs = sec.get("distance_pairs", types=list)
+    pairs = None if sec.distance_pairs is None else [list(p) for p in sec.distance_pairs]
     figures = {}
     for name in ("nominal", "calibrated"):
         attained = model_attained([fk["nominal"][pid] for pid in ids], [fk[name][pid] for pid in ids], measured)
         figures[name] = iso9283_figures(ids, [pose6(P) for P in commanded], [pose6(A) for A in attained],
                                         pairs, label=name)
     return Iso9283Run(figures["nominal"], figures["calibrated"], result, res.frame)
-
-
-def _apply_result(params, path: Path) -> None:
-    try:
-        doc = json.loads(path.read_text(encoding="utf-8"))
-        entries = doc["parameters"]
-    except (OSError, ValueError, KeyError, TypeError) as exc:
-        raise InputError(f"not a robocal result.json ({exc})", source=str(path)) from exc
-    for i, e in enumerate(entries):
-        name = e.get("name") if isinstance(e, dict) else None
-        if name is None or name not in params:
-            raise InputError(f"parameter '{name}' is not part of this config's model", source=str(path),
-                             field=f"parameters[{i}]")
-        params[name].value = float(e["value"])

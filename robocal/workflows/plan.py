@@ -29,13 +29,14 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from robocal.workflows.config import data_units, joint_columns, read_checked_config, robot_from_config, setup_from_config
-from robocal.workflows.config_keys import Cfg
-from robocal.workflows.config_measurements import residual_class
+from robocal.residuals import REGISTRY
+from robocal.workflows.config_read import read_config
 from robocal.workflows.config_sections import is_prismatic
+from robocal.workflows.config_types import CalibrationConfig, PlanConfig
+from robocal.workflows.setup import build_robot, build_setup, joint_columns
 from robocal.io.tables import ANGLE_UNITS, LENGTH_UNITS, Table
 from robocal.design.selection import DesignMatrix, PoseSelection, select_poses
-from robocal.design.candidates import CandidateFilter, MeasurementVolume, filter_candidates, grid_candidates, \
+from robocal.design.candidates import CandidateFilter, filter_candidates, grid_candidates, \
     random_candidates
 from robocal.design.criteria import CRITERIA
 from robocal.errors import InputError
@@ -77,107 +78,84 @@ def plan_from_config(path: str | Path, seed: int | None = None, scheduler: str |
                      workers: int | None = None) -> Plan:
     """The plan of a config; the accuracy curve's points (independent selections, no random draws) are
     computed on Dask when `scheduler` or `workers` is given (docs/fleet.md), identical to the serial run."""
-    path = Path(path).resolve()
-    raw, root = read_checked_config(path)
-    plan = root.child("plan", {})
-    plan.require_mapping()
-    base_dir = path.parent
-    robot = robot_from_config(root.child("robot"), base_dir)
-    blocks = root.get("measurements", required=True, types=list)
-    frames = [b.get("frame") for b in blocks if isinstance(b, dict)]
-    frame = plan.get("frame", frames[0] if frames else None, types=str)
-    if frame is None:
-        raise plan.error("no frame to predict: give plan.frame or a measurement block with a frame", "frame")
+    config = read_config(path)
+    plan = config.plan or PlanConfig(output_dir=(config.base_dir / "robocal-plan").resolve())
+    robot = build_robot(config.robot, config.source)
+    frame = plan.frame or config.measurements[0].frame
     try:
         robot.frame_id(frame)
     except InputError as exc:
-        raise plan.error(exc.reason, "frame") from None
-    data = root.child("data", {})
-    data.require_mapping()
-    joint_cols = joint_columns(data, robot, [f for f in frames if isinstance(f, str)])
+        raise InputError(exc.reason, source=config.source, field="plan.frame") from None
+    joint_cols = joint_columns(config.data, robot, config.frames, config.source)
     joint_names = list(joint_cols)
-    _, joint_units = data_units(data)
-    rng = np.random.default_rng(plan.get("seed", 0, types=int) if seed is None else seed)
-
-    # Candidates, screened on the nominal robot.
-    cand = plan.child("candidates", {})
-    cand.require_mapping()
-    method = cand.get("method", "random", types=str)
-    margin = float(cand.get("margin", 0.05, types=(int, float)))
-    if method == "random":
-        proposed = random_candidates(robot, joint_names, cand.get("count", 1000, types=int), rng, margin)
-    elif method == "grid":
-        try:
-            proposed = grid_candidates(robot, joint_names, cand.get("levels", 4, types=(int, list)), margin)
-        except InputError as exc:
-            raise cand.error(exc.reason, "levels") from None
-    else:
-        raise cand.error("method must be random or grid", "method")
-    volume = MeasurementVolume.from_dict(plan.get("volume"), str(path), "plan.volume")
+    rng = np.random.default_rng(plan.seed if seed is None else seed)
     nominal = ModelState(robot, ParameterSet(), joint_names)
-    screening = filter_candidates(nominal, proposed, frame, volume,
-                                  float(cand.get("min_singular", 0.02, types=(int, float))),
-                                  float(cand.get("length_scale", 0.5, types=(int, float))))
-    if not len(screening.kept):
-        raise plan.error(f"all {len(proposed)} candidates were dropped ({screening.dropped})", "candidates")
-    candidates = proposed[screening.kept]
-
-    problem = _candidate_problem(raw, root, plan, robot, joint_cols, joint_units, candidates)
+    screening, candidates = screened_candidates(plan, config.source, robot, nominal, joint_names, frame, rng)
+    problem = candidate_problem(config, plan, robot, joint_cols, candidates)
     design = DesignMatrix.from_problem(problem)
     candidates = problem.values.copy()      # contact candidates now sit on their (nominal) contact
-    validation = random_candidates(robot, joint_names, plan.get("validation", 200, types=int), rng, margin)
+    validation = random_candidates(robot, joint_names, plan.validation, rng, plan.candidates.margin)
     G = pose_jacobians(problem, frame, validation)
     xyz = np.array([nominal.sample(v).pose(frame).translation for v in validation])
-
-    n = plan.get("N", 30, types=int)
-    criterion = plan.get("criterion", "D", types=str)
-    if criterion not in CRITERIA:
-        raise plan.error(f"unknown criterion '{criterion}' (known: {', '.join(CRITERIA)})", "criterion")
-    if not 1 <= n <= design.n_candidates:
-        raise plan.error(f"cannot choose {n} poses from {design.n_candidates} candidates", "N")
+    if plan.criterion not in CRITERIA:
+        raise InputError(f"unknown criterion '{plan.criterion}' (known: {', '.join(CRITERIA)})", source=config.source,
+                         field="plan.criterion")
+    if not 1 <= plan.n <= design.n_candidates:
+        raise InputError(f"cannot choose {plan.n} poses from {design.n_candidates} candidates", source=config.source,
+                         field="plan.N")
     W = position_weight(G)
-    selection = select_poses(design, n, criterion, W=W)
+    selection = select_poses(design, plan.n, plan.criterion, W=W)
     params = predict_parameters(design, selection.chosen)
     accuracy = predict_pose_accuracy(params, G)
-    counts = plan.get("curve", None, types=list) or _default_counts(design, n)
-    counts = [int(c) for c in counts if 1 <= int(c) <= design.n_candidates]
-    curve_of = functools.partial(accuracy_curve, design, G=G, criterion=criterion, W=W)
+    counts = [int(c) for c in plan.curve or _default_counts(design, plan.n) if 1 <= int(c) <= design.n_candidates]
+    curve_of = functools.partial(accuracy_curve, design, G=G, criterion=plan.criterion, W=W)
     curve = [c for one in map_tasks(curve_of, [[n] for n in counts], scheduler, workers) for c in one]
-    out = plan.child("output", {})
-    out.require_mapping()
     prismatic = [is_prismatic(robot, j) for j in joint_names]
-    return Plan(path, frame, joint_names, list(joint_cols.values()), candidates, screening, design, selection,
-                params, validation, xyz, accuracy, curve,
-                (base_dir / out.get("dir", "robocal-plan", types=str)).resolve(), joint_units, prismatic,
-                {p.name: p.unit for p in problem.params})
+    return Plan(Path(config.source), frame, joint_names, list(joint_cols.values()), candidates, screening, design,
+                selection, params, validation, xyz, accuracy, curve, plan.output_dir,
+                config.data.joint_units.as_dict(), prismatic, {p.name: p.unit for p in problem.params})
 
 
-def _candidate_problem(raw, root, plan, robot, joint_cols, joint_units, candidates):
+def screened_candidates(plan: PlanConfig, source: str, robot, nominal, joint_names, frame, rng):
+    """(the screening, the kept candidate readings): drawn at random or on a grid, screened on the nominal robot."""
+    cand = plan.candidates
+    if cand.method == "random":
+        proposed = random_candidates(robot, joint_names, cand.count, rng, cand.margin)
+    else:
+        try:
+            proposed = grid_candidates(robot, joint_names, cand.levels if isinstance(cand.levels, int)
+                                       else list(cand.levels), cand.margin)
+        except InputError as exc:
+            raise InputError(exc.reason, source=source, field="plan.candidates.levels") from None
+    screening = filter_candidates(nominal, proposed, frame, plan.volume, cand.min_singular, cand.length_scale)
+    if not len(screening.kept):
+        raise InputError(f"all {len(proposed)} candidates were dropped ({screening.dropped})", source=source,
+                         field="plan.candidates")
+    return screening, proposed[screening.kept]
+
+
+def candidate_problem(config: CalibrationConfig, plan: PlanConfig, robot, joint_cols, candidates):
     """The calibration problem of the config with one sample per candidate (placeholder measurements),
     read from an in-memory table in the config's joint units."""
-    blocks = [Cfg(b, f"measurements[{i}]", root.source) for i, b in enumerate(raw["measurements"])]
     cols = {}
+    joint_units = config.data.joint_units
     for k, (j, c) in enumerate(joint_cols.items()):
         kind = "length" if is_prismatic(robot, j) else "angle"
-        unit = (LENGTH_UNITS if kind == "length" else ANGLE_UNITS)[joint_units[kind]]
+        unit = (LENGTH_UNITS if kind == "length" else ANGLE_UNITS)[getattr(joint_units, kind)]
         cols[c] = candidates[:, k] / unit
-    for b in blocks:
-        b.require_mapping()
-        cls = residual_class(b)
-        if not cls.observed and len(blocks) > 1:
+    for m in config.measurements:
+        if not REGISTRY[m.type].observed and len(config.measurements) > 1:
             # each candidate is moved onto its contact, so a contact block cannot share candidates
-            raise b.error("robocal plan takes a contact block (plane, sphere, cylinder, laser line) as the only "
-                          "measurement block; plan mixes from Python (robocal.design.selection)", "type")
-        names = [str(c) for c in b.get("columns", [], types=list)]
-        for c in names:
+            raise InputError("robocal plan takes a contact block (plane, sphere, cylinder, laser line) as the only "
+                             "measurement block; plan mixes from Python (robocal.design.selection)",
+                             source=config.source, field=f"{m.path}.type")
+        for c in m.columns:
             cols.setdefault(c, np.zeros(len(candidates)))
-        if b.value.get("type") == "pose" and len(names) == 7:
-            cols[names[6]] = np.ones(len(candidates))    # qw of an identity placeholder
-    table = Table.from_columns(Path(root.source).with_name("plan candidates (in memory)"), cols)
-    every_row = [np.arange(len(candidates))] * len(blocks)
-    setup = setup_from_config(raw, Path(root.source).parent, root.source, table=table, block_rows=every_row,
-                              sigma=plan.get("noise"))
-    return setup.problem
+        if m.type == "pose" and len(m.columns) == 7:
+            cols[m.columns[6]] = np.ones(len(candidates))    # qw of an identity placeholder
+    table = Table.from_columns(Path(config.source).with_name("plan candidates (in memory)"), cols)
+    every_row = [np.arange(len(candidates))] * len(config.measurements)
+    return build_setup(config, table=table, block_rows=every_row, sigma=plan.noise).problem
 
 
 def _default_counts(design, n) -> list[int]:

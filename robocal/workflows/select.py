@@ -1,20 +1,31 @@
-"""`robocal select`: cross-validate every rung of a config's model ladder and choose one (docs/validation.md)."""
+"""`robocal select`: cross-validate every rung of a config's model ladder, choose one, and calibrate the
+chosen model on all samples into an output folder, as `robocal calibrate` would (docs/validation.md)."""
 from __future__ import annotations
+
+import json
+from pathlib import Path
 
 import numpy as np
 
 from robocal.errors import InputError
 from robocal.estimation.cross_validation import cv_table
 from robocal.estimation.model_selection import Selection, ladder, one_standard_error
+from robocal.workflows.calibrate import CalibrationRun, check_units, run_calibration
+from robocal.workflows.config_read import read_config
 from robocal.workflows.cv import make_folds
 from robocal.workflows.evaluate import setup_for_data
+from robocal.workflows.setup import build_setup
 
 
-def select_model(config, folds: int | None = None, loo: bool = False, group: str | None = None) -> Selection:
-    """Cross-validate every rung of the ladder on the same folds and choose by the one-standard-error rule."""
-    base = setup_for_data(config)
+def select_model(config, folds: int | None = None, loo: bool = False, group: str | None = None,
+                 allow_failed: bool = False) -> Selection:
+    """Cross-validate every rung of the ladder on the same folds and choose by the one-standard-error rule.
+    The data pass the units check first (notes from allow_failed go into the selection's notes)."""
+    config = read_config(config)
+    base = build_setup(config)
+    notes = check_units(base, allow_failed)
     fold_list, label = make_folds(base, folds, loo, group)
-    rungs = ladder((base.raw or {}).get("parameters"))
+    rungs = ladder(config.parameters.to_dict())
     for rung in rungs:
         try:
             setup = setup_for_data(config, parameters=rung.parameters)
@@ -28,4 +39,13 @@ def select_model(config, folds: int | None = None, loo: bool = False, group: str
     if not np.any(np.isfinite(rms)):
         raise InputError("no model of the ladder could be fitted: " + "; ".join(r.skipped for r in rungs))
     chosen, best = one_standard_error(rms, se)
-    return Selection(rungs, chosen, best, label)
+    return Selection(rungs, chosen, best, label, notes=notes)
+
+
+def run_selected(config, selection: Selection, output_dir: str | Path | None = None, *, force: bool = False,
+                 allow_failed: bool = False) -> CalibrationRun:
+    """Calibrate the chosen rung on all samples and write its folder, with selection.json beside."""
+    setup = setup_for_data(config, parameters=selection.rungs[selection.chosen].parameters)
+    extra = {"selection.json": (json.dumps(selection.to_dict(), indent=2, allow_nan=True) + "\n").encode()}
+    return run_calibration(setup, output_dir, force=force, allow_failed=allow_failed, extra=extra,
+                           source=str(config))

@@ -23,10 +23,11 @@ import numpy as np
 
 from robocal.design.simulate import perturb, random_configurations, simulate_measurements
 from robocal.errors import InputError
-from robocal.workflows.config import data_units, joint_columns, read_checked_config, robot_from_config, setup_from_config
-from robocal.workflows.config_keys import Cfg
-from robocal.workflows.config_measurements import residual_class
+from robocal.residuals import REGISTRY
+from robocal.workflows.config_read import read_config
 from robocal.workflows.config_sections import is_prismatic
+from robocal.workflows.config_types import SimulationConfig
+from robocal.workflows.setup import build_robot, build_setup, joint_columns
 from robocal.io.tables import ANGLE_UNITS, LENGTH_UNITS, Table, write_csv
 from robocal.io.text_files import write_atomic
 
@@ -36,44 +37,29 @@ QUAT_W = 6  # position of qw in a pose block's columns
 def simulate_dataset(config: str | Path, output: str | Path | None = None, seed: int | None = None,
                      force: bool = False) -> list[Path]:
     """Write the synthetic CSV (in the config's data units) and its truth JSON; returns both paths."""
-    config = Path(config).resolve()
-    raw, root = read_checked_config(config)
-    sim = root.child("simulation", {})
-    sim.require_mapping()
-    seed = sim.get("seed", 0, types=int) if seed is None else seed
+    config = read_config(config)
+    sim = config.simulation or SimulationConfig()
+    seed = sim.seed if seed is None else seed
     rng = np.random.default_rng(seed)
-    data = root.child("data", {})
-    data.require_mapping()
-    out = Path(output).resolve() if output else (config.parent / data.get("csv", required=True, types=str)).resolve()
+    if output is None and config.data.csv is None:
+        raise InputError("required key is missing", source=config.source, field="data.csv")
+    out = Path(output).resolve() if output else config.data.csv
     truth_path = out.with_name(out.stem + "_truth.json")
     for p in (out, truth_path):
         if p.exists() and not force:
             raise InputError("file exists; pass --force to replace it", source=str(p))
-
-    robot = robot_from_config(root.child("robot"), config.parent)
-    meas = root.child("measurements")
-    if not isinstance(meas.value, list) or not meas.value:
-        raise meas.error("need a list of at least one measurement block")
-    blocks = [Cfg(b, f"measurements[{i}]", str(config)) for i, b in enumerate(meas.value)]
-    n_obs = sim.get("samples", 60, types=int)
-    if n_obs < 1:
-        raise sim.error("need at least one sample", "samples")
+    robot = build_robot(config.robot, config.source)
     rows_of, labels, block_label = [], [], []
-    for i, b in enumerate(blocks):
-        b.require_mapping()
-        cls = residual_class(b)
-        label = "observed" if cls.observed else b.get("name", f"{b.value['type']}{i}", types=str)
+    for m in config.measurements:
+        cls = REGISTRY[m.type]
+        label = "observed" if cls.observed else m.name
         block_label.append(label)
         if label in labels:
             continue
-        n = n_obs if cls.observed else b.get("samples", 20, types=int)
-        if n < 1:
-            raise b.error("need at least one sample", "samples")
-        rows_of.append((label, n))
+        rows_of.append((label, sim.samples if cls.observed else m.samples or 20))
         labels.append(label)
-    frames = [b.get("frame", required=True, types=str) for b in blocks]
-    joint_cols = joint_columns(data, robot, frames)
-    units, joint_units = data_units(data)
+    joint_cols = joint_columns(config.data, robot, config.frames, config.source)
+    units, joint_units = config.data.units.as_dict(), config.data.joint_units.as_dict()
     joint_scale = [_unit_factor("length" if is_prismatic(robot, j) else "angle", joint_units) for j in joint_cols]
 
     # Provisional table: random readings, placeholder measurements; the real values come from the truth.
@@ -81,23 +67,20 @@ def simulate_dataset(config: str | Path, output: str | Path | None = None, seed:
     q = random_configurations(robot, list(joint_cols), n_total, rng, span=0.9)
     cols = {c: q[:, k] / joint_scale[k] for k, c in enumerate(joint_cols.values())}
     block_col = np.concatenate([[idx] * n for idx, (_, n) in enumerate(rows_of)])
-    for b in blocks:
-        names = [str(c) for c in b.get("columns", [], types=list)]
-        for c in names:
+    for m in config.measurements:
+        for c in m.columns:
             cols[c] = np.zeros(n_total)
-        if b.value["type"] == "pose" and len(names) > QUAT_W:
-            cols[names[QUAT_W]] = np.ones(n_total)
+        if m.type == "pose" and len(m.columns) > QUAT_W:
+            cols[m.columns[QUAT_W]] = np.ones(n_total)
     table = Table.from_columns(out, {**cols, "block": block_col})
     block_rows = [np.flatnonzero(block_col == labels.index(lab)) for lab in block_label]
-    setup = setup_from_config(raw, config.parent, str(config), table=table, block_rows=block_rows)
+    setup = build_setup(config, table=table, block_rows=block_rows)
     problem = setup.problem
-    spans = sim.child("perturb", {})
-    spans.require_mapping()
-    truth = perturb(problem.params, rng, spans.number("translation", 2e-3), spans.number("rotation", np.radians(0.2)))
+    truth = perturb(problem.params, rng, sim.translation, sim.rotation)
     try:
-        truth.set_values(sim.get("truth", {}, types=dict))
+        truth.set_values(sim.truth)
     except InputError as exc:
-        raise sim.error(exc.reason, "truth") from None
+        raise InputError(exc.reason, source=config.source, field="simulation.truth") from None
     simulate_measurements(problem, truth, rng)
     # Gather: write every sample back to the provisional row it came from, in the config's units.
     rows = np.array([r for _, r in setup.sample_rows], dtype=int)

@@ -14,7 +14,7 @@ import numpy as np
 import pinocchio as pin
 
 from robocal.errors import InputError, RobocalError
-from robocal.model.inverse_kinematics import IKFailure, reading_ik
+from robocal.model.inverse_kinematics import IKFailure, solve_ik
 from robocal.residuals.base import basis_from_normal
 
 DEG = np.pi / 180.0
@@ -113,7 +113,8 @@ def plan_configurations(robot, ms, joints, mount, plan: list[PlannedPose], targe
         if k >= 40 or len(found) >= 6:
             break
         try:
-            q = reading_ik(ms, mount.frame, flange(ref), sd, lower, upper, tol=1e-10, max_iterations=60)
+            q = solve_ik(ms, mount.frame, flange(ref), sd, lower=lower, upper=upper, tol=1e-10, max_iterations=60,
+                             max_step=0.3)
         except IKFailure:
             continue      # this seed leads nowhere; the grid has others
         if np.linalg.svd(ms.sample(q).frame_joint_jacobian(mount.frame),
@@ -148,7 +149,7 @@ def _walk(ms, frame, lower, upper, q0, flange, a: PlannedPose, b: PlannedPose, m
         f = i / steps
         mid = PlannedPose(pin.exp3(f * rel) @ a.rotation, (1 - f) * a.standoff + f * b.standoff, b.fan, b.angle)
         try:
-            q = reading_ik(ms, frame, flange(mid), q, lower, upper)
+            q = solve_ik(ms, frame, flange(mid), q, lower=lower, upper=upper, max_iterations=200, max_step=0.3)
         except IKFailure:
             return None
     return q

@@ -15,7 +15,7 @@ import pinocchio as pin
 
 from robocal.errors import InputError, RobocalError
 from robocal.model.kinematics import ModelState
-from robocal.model.inverse_kinematics import IKFailure, reading_ik
+from robocal.model.inverse_kinematics import IKFailure, solve_ik
 from robocal.systems.laser_psd.plans import PlannedPose, beam_frame, joint_limits
 from robocal.residuals.base import basis_from_normal
 
@@ -171,8 +171,8 @@ def acquire(robot, nominal_params, joints, sim: SimRobot, psd: PSD, plan: list[P
                 mid = PlannedPose(pin.exp3(f * rel) @ a.rotation, (1 - f) * a.standoff + f * b.standoff,
                                   pose.fan, pose.angle)
                 try:
-                    q = reading_ik(nominal, frame, beam_frame(c_est, direction, mid, roll) * mount_inv, sim.q,
-                                   lower, upper)
+                    q = solve_ik(nominal, frame, beam_frame(c_est, direction, mid, roll) * mount_inv, sim.q,
+                                 lower=lower, upper=upper, max_iterations=200, max_step=0.3)
                 except IKFailure as exc:
                     raise RobocalError(f"pose (fan {pose.fan}, {np.degrees(pose.angle):+.1f} deg) is unreachable: "
                                        f"{exc}") from exc

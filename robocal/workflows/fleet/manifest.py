@@ -23,8 +23,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from robocal.errors import InputError
-from robocal.workflows.config import Cfg, read_yaml
-from robocal.workflows.config_keys import check_keys
+from robocal.io.yaml_files import read_yaml
+from robocal.workflows.config_keys import Cfg
+from robocal.workflows.config_read import read_config
+from robocal.workflows.config_types import CalibrationConfig
 
 FLEET_KEYS = ("config", "units", "output", "accept")
 MANIFEST_COLUMNS = ("unit", "data", "urdf", "serial", "date", "site")
@@ -44,7 +46,7 @@ class UnitJob:
     data: dict              # template CSV name ('' = data.csv) -> this unit's file (absolute)
     urdf: str | None        # this unit's URDF (absolute) or None: the config's robot
     template: str           # the calibration config (absolute)
-    raw: dict               # its parsed YAML
+    config: CalibrationConfig   # its checked config
     output_dir: str
     input_hash: str
     config_hash: str
@@ -83,8 +85,7 @@ def load_fleet(path: str | Path) -> FleetSpec:
     root = Cfg(read_yaml(path), "", str(path))
     root.check_keys(FLEET_KEYS)
     template = (path.parent / root.get("config", required=True, types=str)).resolve()
-    raw = read_yaml(template)
-    check_keys(raw, str(template))      # every key of the template, before any unit runs
+    config = read_config(template)      # the whole template checked before any unit runs
     out = root.child("output", {})
     out.check_keys(("dir", "table"))
     output_dir = (path.parent / out.get("dir", "fleet-output", types=str)).resolve()
@@ -92,9 +93,9 @@ def load_fleet(path: str | Path) -> FleetSpec:
     accept = root.child("accept", {})
     accept.check_keys(("max_sigma_ratio",))
     max_ratio = float(accept.get("max_sigma_ratio", DEFAULT_MAX_SIGMA_RATIO, types=(int, float)))
-    robot_urdf = (raw.get("robot") or {}).get("urdf") if isinstance(raw.get("robot"), dict) else None
-    config_hash = combined_hash({"config": raw, "max_sigma_ratio": max_ratio,
-                                 "urdf": file_hash(template.parent / robot_urdf) if robot_urdf else None})
+    robot_urdf = config.robot.urdf
+    config_hash = combined_hash({"config": config.to_dict(), "max_sigma_ratio": max_ratio,
+                                 "urdf": file_hash(robot_urdf) if robot_urdf else None})
     units = root.get("units", required=True, types=(str, dict))
     rows = _glob_rows(root, path.parent, units) if isinstance(units, dict) else _manifest_rows(path.parent / units)
     jobs, seen = [], {}
@@ -107,7 +108,7 @@ def load_fleet(path: str | Path) -> FleetSpec:
         files = {**r["data"], **({"urdf": r["urdf"]} if r["urdf"] else {})}
         input_hash = combined_hash({name: file_hash(p) for name, p in files.items()})
         jobs.append(UnitJob(key, r["unit"], r["date"], r["serial"], r["site"], r["data"], r["urdf"], str(template),
-                            raw, str(output_dir / "units" / key), input_hash, config_hash, max_ratio, source))
+                            config, str(output_dir / "units" / key), input_hash, config_hash, max_ratio, source))
     if not jobs:
         raise root.error("no units: the manifest is empty or the glob matches no file", "units")
     return FleetSpec(path, template, output_dir, table_path, jobs)

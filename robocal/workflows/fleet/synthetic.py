@@ -22,7 +22,7 @@ import yaml
 
 from robocal.workflows.simulate import simulate_dataset
 from robocal.estimation.calibrate import calibrate
-from robocal.workflows.config import load_config
+from robocal.workflows.setup import load_config
 
 DEMO = files("robocal.io") / "demo" / "ur5_calibrate.yaml"
 

@@ -4,7 +4,7 @@ problems (bad CSV, diverged fit): those go into the row's status and message, so
 """
 from __future__ import annotations
 
-import copy
+import dataclasses
 import os
 import socket
 import time
@@ -13,11 +13,10 @@ from pathlib import Path
 import numpy as np
 
 from robocal.errors import InputError, RobocalError
-from robocal.estimation.calibrate import calibrate
+from robocal.workflows.calibrate import CalibrationRun, run_calibration, sigma_ratio
+from robocal.workflows.config_types import CalibrationConfig
 from robocal.workflows.fleet.manifest import UnitJob
-from robocal.workflows.config import Setup, setup_from_config
-from robocal.workflows.outputs import write_results
-from robocal.viz.scene import scene_bytes
+from robocal.workflows.setup import Setup, build_setup, with_urdf
 
 #: statuses whose row is final: a re-run with the same inputs and config skips the unit
 FINAL_STATUSES = ("converged", "ill-conditioned", "not converged", "diverged", "input error", "error")
@@ -25,35 +24,30 @@ FINAL_STATUSES = ("converged", "ill-conditioned", "not converged", "diverged", "
 LOST = "lost"
 
 
-def unit_config(job: UnitJob) -> dict:
+def unit_config(job: UnitJob) -> CalibrationConfig:
     """The template config with this unit's data files, URDF and output folder."""
-    raw = copy.deepcopy(job.raw)
-    data = raw.setdefault("data", {}) or {}
-    raw["data"] = data
-    data["csv"] = job.data[""]
-    for block in raw.get("measurements") or []:
-        if isinstance(block, dict) and block.get("csv") in job.data:
-            block["csv"] = job.data[block["csv"]]
-    if job.urdf:
-        robot = {k: v for k, v in (raw.get("robot") or {}).items() if k not in ("urdf", "example")}
-        raw["robot"] = {**robot, "urdf": job.urdf}
-    raw.setdefault("output", {})
-    raw["output"] = {**(raw["output"] or {}), "dir": job.output_dir}
-    return raw
+    config = job.config
+
+    def own(csv: Path | None) -> str | None:     # a block's csv as the template writes it: the manifest's key
+        return None if csv is None else Path(os.path.relpath(csv, config.base_dir)).as_posix()
+    blocks = tuple(dataclasses.replace(m, csv=Path(job.data[own(m.csv)])) if own(m.csv) in job.data else m
+                   for m in config.measurements)
+    config = dataclasses.replace(config, data=dataclasses.replace(config.data, csv=Path(job.data[""])),
+                                 measurements=blocks, output=dataclasses.replace(config.output, dir=Path(job.output_dir)))
+    return with_urdf(config, job.urdf) if job.urdf else config
 
 
 def unit_setup(job: UnitJob) -> Setup:
-    raw = unit_config(job)
-    return setup_from_config(raw, Path(job.template).parent, job.template)
+    return build_setup(unit_config(job))
 
 
 def calibrate_unit(job: UnitJob) -> dict:
-    """Calibrate one unit, write its output folder, return its table row (plain Python values)."""
+    """Calibrate one unit as `robocal calibrate` would (run_calibration), return its table row (plain values)."""
     start = time.perf_counter()
     row = {**job.identity(), "worker": f"{socket.gethostname()}:{os.getpid()}"}
     try:
-        setup = unit_setup(job)
-        row.update(_fit(setup, job))
+        run = run_calibration(unit_setup(job), job.output_dir, force=True, accept_sigma_ratio=job.max_sigma_ratio)
+        row.update(unit_status(run), **result_columns(run.result, sigma_ratio(run.result)))
     except InputError as exc:
         row.update(status="input error", message=str(exc))
     except RobocalError as exc:
@@ -64,32 +58,16 @@ def calibrate_unit(job: UnitJob) -> dict:
     return row
 
 
-def _fit(setup: Setup, job: UnitJob) -> dict:
-    p = setup.problem
-    before = p.params.copy()    # the scene shows the model before and after the fit
-    result = calibrate(p, setup.options, source=", ".join(str(t.path) for t in setup.tables.values()))
-    dof = max(result.dof, 1)
-    ratio = float(np.sqrt(np.sum(result.solve.fun ** 2) / dof))   # residual / stated sigma
-    status, message = result.status, ""
+def unit_status(run: CalibrationRun) -> dict:
+    """The row's status and message: the fit's status, 'diverged' for a rejected fit."""
+    result = run.result
+    if run.rejected:
+        return {"status": "diverged", "message": run.rejected}
     if not result.solve.success:
-        message = f"{result.solve.message} after {result.solve.nit} iterations"
-    elif ratio > job.max_sigma_ratio:
-        status = "diverged"
-        rms = "; ".join(f"{b.name} " + ", ".join(f"{v:.4g} {k}" for k, v in b.rms.items()) for b in result.after)
-        message = (f"residual/sigma {ratio:.4g} exceeds accept.max_sigma_ratio {job.max_sigma_ratio:g} "
-                   f"(RMS after the fit: {rms}); the fitted model does not explain the data")
-        setup.robot.urdf_text = None   # no calibrated URDF from a rejected fit (result.json still written)
-    elif result.ill_conditioned:
-        message = result.identifiability_statements()[-1]
-    extra = {"scene.json": scene_bytes(setup, result, before)}
-    if (setup.raw.get("output") or {}).get("report", True):
-        try:
-            from robocal.viz.report import report_bytes   # matplotlib and meshcat: the optional [viz] extra
-            extra["report.html"] = report_bytes(result, extra["scene.json"], meshes=False)
-        except ImportError:
-            pass   # the folder holds everything else; `robocal report` can add the page later
-    write_results(setup.robot, result, job.output_dir, force=True, extra=extra)
-    return {"status": status, "message": message, **result_columns(result, ratio)}
+        return {"status": result.status, "message": f"{result.solve.message} after {result.solve.nit} iterations"}
+    if result.ill_conditioned:
+        return {"status": result.status, "message": result.identifiability_statements()[-1]}
+    return {"status": result.status, "message": ""}
 
 
 def result_columns(result, sigma_ratio: float) -> dict:

@@ -1,0 +1,298 @@
+"""Read a calibration YAML once into typed objects (config_types.py), checking every key, type and value
+that does not need the robot or the data; those are checked when the set-up is built (setup.py).
+
+Every mistake names the file and the key path (`measurements[1].sigma.position`). Units: see
+docs/config.md, "Units" (measurement columns and their sigmas in `data.units`).
+"""
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+
+from robocal.design.candidates import MeasurementVolume
+from robocal.errors import InputError
+from robocal.estimation.calibrate import CalibrationOptions
+from robocal.io.tables import ANGLE_UNITS, LENGTH_UNITS
+from robocal.io.yaml_files import read_yaml
+from robocal.model.approach import ApproachSpec
+from robocal.model.parameters import COMPONENTS
+from robocal.workflows.config_keys import FILLED_BY_CONFIG, TOP_KEYS, Cfg, check_keys
+from robocal.workflows.config_types import (CalibrationConfig, CandidatesConfig, DataConfig, FrameSpec,
+                                            Iso9283Config, MeasurementConfig, OutputConfig, ParametersConfig,
+                                            Placement, PlanConfig, RobotConfig, SimulationConfig, Units)
+from robocal.workflows.config_measurements import accepts_measurements, residual_class, sigma_argument
+
+#: keys of a block that are not its type's own settings
+RESERVED = ("type", "name", "frame", "csv", "where", "columns", "sigma", "samples")
+
+
+def read_config(path: str | Path) -> CalibrationConfig:
+    """The checked config of a calibration YAML file (paths relative to its folder)."""
+    path = Path(path).resolve()
+    return parse_config(read_yaml(path), path.parent, str(path))
+
+
+def parse_config(raw, base_dir: str | Path, source: str) -> CalibrationConfig:
+    """The checked config of a parsed YAML mapping; paths relative to base_dir, `source` names it in errors."""
+    if not isinstance(raw, dict):
+        raise InputError(f"the config is empty or not a mapping of sections ({', '.join(TOP_KEYS)})", source=source)
+    check_keys(raw, source)
+    base_dir = Path(base_dir).resolve()
+    root = Cfg(raw, "", source)
+    data = data_config(root.child("data", {}), base_dir)
+    out = root.child("output", {})
+    out.require_mapping()
+    return CalibrationConfig(
+        source, base_dir, robot_config(root.child("robot"), base_dir), data,
+        parameters_config(root.child("parameters")), measurement_configs(root.child("measurements"), base_dir, data),
+        solver_options(root.child("solver")),
+        OutputConfig((base_dir / out.get("dir", "robocal-output", types=str)).resolve(),
+                     bool(out.get("report", True, types=bool))),
+        simulation_config(root.child("simulation")) if "simulation" in raw else None,
+        plan_config(root.child("plan", {}), base_dir, data) if "plan" in raw else None,
+        iso9283_config(root.child("iso9283")) if "iso9283" in raw else None)
+
+
+def with_parameters(config: CalibrationConfig, overrides: dict) -> CalibrationConfig:
+    """The config with keys of its `parameters:` section replaced (YAML form, checked as the file's are)."""
+    merged = {**config.parameters.to_dict(), **overrides}
+    check_keys({"parameters": merged}, config.source)
+    return dataclasses.replace(config, parameters=parameters_config(Cfg(merged, "parameters", config.source)))
+
+
+def robot_config(cfg: Cfg, base_dir: Path) -> RobotConfig:
+    if cfg.value is None:
+        raise cfg.error("required section is missing (give robot.urdf or robot.example)")
+    cfg.require_mapping()
+    if ("urdf" in cfg.value) == ("example" in cfg.value):
+        raise cfg.error("give exactly one of 'urdf' (a file) or 'example' (a robot name)")
+    urdf = cfg.get("urdf", types=str)
+    frames = []
+    for i, f in enumerate(cfg.get("frames", [], types=list)):
+        fc = Cfg(f, f"{cfg.path}.frames[{i}]", cfg.source)
+        fc.require_mapping()
+        frames.append(FrameSpec(fc.get("name", required=True, types=str), fc.get("parent", required=True, types=str),
+                                placement(fc)))
+    return RobotConfig(None if urdf is None else (base_dir / urdf).resolve(), cfg.get("example", types=str),
+                       tuple((base_dir / str(d)).resolve() for d in cfg.get("package_dirs", [], types=list)),
+                       placement(cfg.child("base")), tuple(frames))
+
+
+def placement(cfg: Cfg) -> Placement:
+    """xyz (m) and rpy (rad) of a mapping (identity when absent)."""
+    if cfg.value is None:
+        return Placement()
+    cfg.require_mapping()
+    out = []
+    for key in ("xyz", "rpy"):
+        v = cfg.get(key, [0, 0, 0], types=list)
+        if len(v) != 3 or not all(isinstance(x, (int, float)) and not isinstance(x, bool) and np.isfinite(x)
+                                  for x in v):
+            raise cfg.error(f"expected three finite numbers, got {v!r}", key)
+        out.append(tuple(float(x) for x in v))
+    return Placement(out[0], out[1])
+
+
+def units_of(node: Cfg) -> Units:
+    node.require_mapping()
+    units = Units(node.get("length", "m", types=str), node.get("angle", "rad", types=str))
+    for kind, allowed in (("length", LENGTH_UNITS), ("angle", ANGLE_UNITS)):
+        if getattr(units, kind) not in allowed:
+            raise node.error(f"unknown unit '{getattr(units, kind)}' (allowed: {', '.join(allowed)})", kind)
+    return units
+
+
+def data_config(data: Cfg, base_dir: Path) -> DataConfig:
+    data.require_mapping()
+    joints = data.get("joints")
+    if isinstance(joints, list):
+        joints = {str(j): str(j) for j in joints}
+    elif isinstance(joints, dict):
+        joints = {str(k): str(v) for k, v in joints.items()}
+    elif joints is not None:
+        raise data.error("expected a list of joint names or a mapping joint -> column", "joints")
+    csv = data.get("csv", types=str)
+    approach = data.child("approach")
+    return DataConfig(None if csv is None else (base_dir / csv).resolve(), joints, units_of(data.child("units", {})),
+                      units_of(data.child("joint_units", {})),
+                      None if approach.value is None else approach_spec(approach))
+
+
+def approach_spec(cfg: Cfg) -> ApproachSpec:
+    """`data.approach`: how the approach direction of each sample is known (joint names checked at set-up)."""
+    cfg.require_mapping()
+    spec = ApproachSpec(source=cfg.get("from", "order", types=str), sort_by=cfg.get("sort_by", types=str))
+    if spec.source not in ("order", "columns"):
+        raise cfg.error(f"unknown source '{spec.source}' (order, columns)", "from")
+    th = cfg.child("threshold", {})
+    th.require_mapping()
+    for k in spec.threshold:
+        spec.threshold[k] = float(th.get(k, spec.threshold[k], types=(int, float)))
+        if not spec.threshold[k] >= 0:
+            raise th.error("a threshold is a joint move (rad or m), zero or more", k)
+    spec.initial = {str(j): v for j, v in cfg.get("initial", {}, types=dict).items()}
+    spec.columns = {str(j): str(v) for j, v in cfg.get("columns", {}, types=dict).items()}
+    if any(v not in (-1, 0, 1) for v in spec.initial.values()):
+        raise cfg.error("initial directions are -1, 0 or 1", "initial")
+    return spec
+
+
+def components(cfg: Cfg, key: str, value):
+    """True / False, or a list of tx ... rz components as a tuple."""
+    if value is True or value is False:
+        return value
+    if isinstance(value, list) and set(map(str, value)) <= set(COMPONENTS):
+        return tuple(str(c) for c in value)
+    raise cfg.error(f"expected true or a list of {', '.join(COMPONENTS)}, got {value!r}", key)
+
+
+def parameters_config(cfg: Cfg) -> ParametersConfig:
+    if cfg.value is None:
+        return ParametersConfig()
+    cfg.require_mapping()
+    frames = {}
+    for name, v in cfg.get("frames", {}, types=dict).items():
+        frames[str(name)] = components(cfg.child("frames"), str(name), v)
+    joints = cfg.get("joints", types=list)
+    kinds = {k: cfg.get(k, False, types=(bool, list)) for k in ("base", "compliance", "backlash", "tilt")}
+    kinds["base"] = components(cfg, "base", kinds["base"])
+    kinds.update({k: v if isinstance(v, bool) else tuple(str(j) for j in v)
+                  for k, v in kinds.items() if k != "base"})
+    return ParametersConfig(cfg.get("preset", "full", types=str), None if joints is None else tuple(map(str, joints)),
+                            frames, kinds["base"], kinds["compliance"], kinds["backlash"], kinds["tilt"],
+                            tuple(map(str, cfg.get("fix", [], types=list))),
+                            tuple(map(str, cfg.get("free", [], types=list))),
+                            numbers_by_pattern(cfg, "initial"), numbers_by_pattern(cfg, "priors", positive=True),
+                            bounds_by_pattern(cfg))
+
+
+def numbers_by_pattern(cfg: Cfg, key: str, positive: bool = False) -> dict[str, float]:
+    node = cfg.child(key)
+    out = {}
+    for pattern, v in cfg.get(key, {}, types=dict).items():
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v):
+            raise node.error(f"expected a finite number, got {v!r}", str(pattern))
+        if positive and not v > 0:
+            raise node.error(f"a prior sigma must be positive, got {v!r}", str(pattern))
+        out[str(pattern)] = float(v)
+    return out
+
+
+def bounds_by_pattern(cfg: Cfg) -> dict[str, tuple[float | None, float | None]]:
+    node = cfg.child("bounds")
+    out = {}
+    for pattern, bound in cfg.get("bounds", {}, types=dict).items():
+        if not (isinstance(bound, list) and len(bound) == 2
+                and all(b is None or (isinstance(b, (int, float)) and not isinstance(b, bool)) for b in bound)):
+            raise node.error(f"expected [low, high], got {bound!r}", str(pattern))
+        out[str(pattern)] = tuple(None if b is None else float(b) for b in bound)
+    return out
+
+
+def measurement_configs(meas: Cfg, base_dir: Path, data: DataConfig) -> tuple[MeasurementConfig, ...]:
+    if not isinstance(meas.value, list) or not meas.value:
+        raise meas.error("need a list of at least one measurement block")
+    return tuple(measurement_config(Cfg(m, f"measurements[{i}]", meas.source), i, base_dir, data)
+                 for i, m in enumerate(meas.value))
+
+
+def measurement_config(b: Cfg, i: int, base_dir: Path, data: DataConfig) -> MeasurementConfig:
+    b.require_mapping()
+    cls = residual_class(b)
+    frame = b.get("frame", required=True, types=str)
+    where = b.get("where", types=dict)
+    if where is not None and len(where) != 1:
+        raise b.error("where selects rows by one column: {column: value}", "where")
+    columns = b.get("columns", None, types=list)
+    if accepts_measurements(cls):
+        if columns is None:
+            raise b.error("required key is missing", "columns")
+        kinds = cls.column_kinds(len(columns))
+        if len(kinds) != len(columns):
+            raise b.error(f"{cls.type_name} needs {len(kinds)} columns, got {len(columns)}", "columns")
+    csv = b.get("csv", types=str)
+    samples = b.get("samples", types=int)
+    if samples is not None and samples < 1:
+        raise b.error("need at least one sample", "samples")
+    sigma = b.value.get("sigma")
+    return MeasurementConfig(
+        cls.type_name, b.get("name", f"{cls.type_name}{i}", types=str), frame, b.path,
+        None if csv is None else (base_dir / csv).resolve(), None if where is None else next(iter(where.items())),
+        tuple(str(c) for c in columns or ()), None if sigma is None else sigma_argument(sigma, b, data.units),
+        {k: v for k, v in b.value.items() if k not in RESERVED and k not in FILLED_BY_CONFIG}, samples)
+
+
+def simulation_config(sim: Cfg) -> SimulationConfig:
+    if sim.value is None:
+        return SimulationConfig()
+    sim.require_mapping()
+    spans = sim.child("perturb", {})
+    spans.require_mapping()
+    samples = sim.get("samples", 60, types=int)
+    if samples < 1:
+        raise sim.error("need at least one sample", "samples")
+    truth = sim.get("truth", {}, types=dict)
+    for name, v in truth.items():
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            raise sim.child("truth").error(f"expected a number, got {v!r}", str(name))
+    return SimulationConfig(sim.get("seed", 0, types=int), samples, spans.number("translation", 2e-3),
+                            spans.number("rotation", np.radians(0.2)), {str(k): float(v) for k, v in truth.items()})
+
+
+def plan_config(plan: Cfg, base_dir: Path, data: DataConfig) -> PlanConfig:
+    plan.require_mapping()
+    cand = plan.child("candidates", {})
+    cand.require_mapping()
+    method = cand.get("method", "random", types=str)
+    if method not in ("random", "grid"):
+        raise cand.error("method must be random or grid", "method")
+    levels = cand.get("levels", 4, types=(int, list))
+    candidates = CandidatesConfig(method, cand.get("count", 1000, types=int),
+                                  float(cand.get("margin", 0.05, types=(int, float))),
+                                  levels if isinstance(levels, int) else tuple(levels),
+                                  float(cand.get("min_singular", 0.02, types=(int, float))),
+                                  float(cand.get("length_scale", 0.5, types=(int, float))))
+    noise = plan.get("noise")
+    curve = plan.get("curve", None, types=list)
+    out = plan.child("output", {})
+    out.require_mapping()
+    return PlanConfig(plan.get("frame", types=str), plan.get("N", 30, types=int), plan.get("criterion", "D", types=str),
+                      plan.get("seed", 0, types=int),
+                      None if noise is None else sigma_argument(noise, Cfg({"sigma": noise}, "plan.noise", plan.source),
+                                                                data.units),
+                      candidates, MeasurementVolume.from_dict(plan.get("volume"), plan.source, "plan.volume"),
+                      plan.get("validation", 200, types=int), None if curve is None else tuple(int(c) for c in curve),
+                      (base_dir / out.get("dir", "robocal-plan", types=str)).resolve())
+
+
+def iso9283_config(sec: Cfg) -> Iso9283Config:
+    if sec.value is None:
+        raise sec.error("the config needs an 'iso9283' section (pose_id, measurement, commanded)")
+    sec.require_mapping()
+    cols = sec.get("commanded", types=list)
+    if cols is not None and len(cols) != 7:
+        raise sec.error(f"commanded needs 7 columns (x y z qx qy qz qw), got {len(cols)}", "commanded")
+    pairs = sec.get("distance_pairs", types=list)
+    if pairs is not None and not all(isinstance(p, list) and len(p) == 2 for p in pairs):
+        raise sec.error("expected a list of [pose, pose] pairs", "distance_pairs")
+    return Iso9283Config(sec.get("pose_id", required=True, types=str), sec.get("measurement", types=str),
+                         None if cols is None else tuple(str(c) for c in cols),
+                         None if pairs is None else tuple((str(a), str(b)) for a, b in pairs))
+
+
+
+def solver_options(cfg: Cfg) -> CalibrationOptions:
+    opt = CalibrationOptions()
+    if cfg.value is None:
+        return opt
+    cfg.require_mapping()
+    for k in vars(opt):
+        if k in cfg.value:
+            default = getattr(opt, k)
+            setattr(opt, k, cfg.get(k, types=(str,) if isinstance(default, str) else
+                                    (bool,) if isinstance(default, bool) else (int, float)))
+    if opt.loss not in ("linear", "huber", "soft_l1"):
+        raise cfg.error("loss must be linear, huber or soft_l1", "loss")
+    return opt

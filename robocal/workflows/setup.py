@@ -1,0 +1,198 @@
+"""A checked config -> the set-up of a calibration: the robot, its data and the problem to fit.
+
+`build_setup(config)` is the one path from a typed config (config_read.py) to a `Setup` (robot, problem,
+options); `load_config(path)` reads the file first. Every workflow uses it: calibrate, select, evaluate,
+cv, iso9283, the fleet's units, and simulate and plan (which pass an in-memory table instead of the data
+file). Checks that need the robot or the data (frame and joint names, columns, units) are made here, and
+every mistake names the file and the key path (`measurements[1].frame`).
+"""
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+import pinocchio as pin
+
+from robocal.errors import InputError
+from robocal.estimation.calibrate import CalibrationOptions
+from robocal.estimation.problem import Problem
+from robocal.io.tables import Table, read_csv
+from robocal.model.robot import Robot, load_example, load_urdf
+from robocal.residuals import REGISTRY
+from robocal.workflows.config_measurements import residual_from_block
+from robocal.workflows.config_read import parse_config, read_config
+from robocal.workflows.config_sections import (apply_parameter_overrides, approach_directions, joint_values,
+                                               parameter_set)
+from robocal.workflows.config_types import CalibrationConfig, DataConfig, MeasurementConfig, Placement, RobotConfig
+
+
+@dataclass
+class Setup:
+    """What a calibration works on: the robot, the problem (samples, residuals, parameters), the solver
+    options, the output folder, the typed config it came from, and where each sample's row came from."""
+
+    robot: Robot
+    problem: Problem
+    options: CalibrationOptions
+    output_dir: Path
+    config: CalibrationConfig
+    tables: dict[str, Table] = field(default_factory=dict)
+    sample_rows: list[tuple[str, int]] = field(default_factory=list)   # (file, data row) of each sample
+    joint_columns: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def source(self) -> str:
+        return self.config.source
+
+    @property
+    def units(self) -> dict[str, str]:
+        return self.config.data.units.as_dict()
+
+    @property
+    def joint_units(self) -> dict[str, str]:
+        return self.config.data.joint_units.as_dict()
+
+
+def load_config(path: str | Path, urdf: str | Path | None = None) -> Setup:
+    """The Setup of a calibration YAML file, with the robot taken from `urdf` instead of the config's when
+    given (a unit's own URDF, a model under test)."""
+    config = read_config(path)
+    if urdf is not None:
+        config = with_urdf(config, urdf)
+    return build_setup(config)
+
+
+def with_urdf(config: CalibrationConfig, urdf: str | Path) -> CalibrationConfig:
+    """The config with its robot read from another URDF file (base placement and added frames kept)."""
+    robot = dataclasses.replace(config.robot, urdf=Path(urdf).resolve(), example=None)
+    return dataclasses.replace(config, robot=robot)
+
+
+def setup_from_config(raw, base_dir: str | Path, source: str, **kwargs) -> Setup:
+    """The Setup of a parsed YAML mapping (paths relative to base_dir): parse_config, then build_setup."""
+    return build_setup(parse_config(raw, base_dir, source), **kwargs)
+
+
+def default_joints(robot: Robot, frames: Sequence[str]) -> list[str]:
+    """The joints read by default: every joint that moves one of the measured frames, in model order; for a
+    closed chain the actuated joints (the others follow from the closures)."""
+    if robot.loops is not None:
+        return list(robot.loops.actuated)
+    return [j for j in robot.joint_names if any(j in robot.supporting_joints(f) for f in frames)]
+
+
+def build_setup(config: CalibrationConfig, *, table: Table | None = None,
+                block_rows: Sequence[np.ndarray] | None = None, sigma=None) -> Setup:
+    """The Setup of a checked config.
+
+    table       read every measurement block from this table (in the config's units) instead of the
+                data files: `robocal simulate`, `robocal plan`, a validation file
+    block_rows  the rows of `table` each block uses (instead of its `where`)
+    sigma       replaces every block's sigma (robocal plan's `noise`), in data units
+    """
+    source, data = config.source, config.data
+    robot = build_robot(config.robot, source)
+    for m in config.measurements:
+        try:
+            robot.frame_id(m.frame)
+        except InputError as exc:
+            raise InputError(exc.reason, source=source, field=f"{m.path}.frame") from None
+    joint_cols = joint_columns(data, robot, config.frames, source)
+    tables: dict[str, Table] = {} if table is None else {str(table.path): table}
+    samples: dict[tuple[str, int], int] = {}
+    values: list[np.ndarray] = []
+    residuals = []
+    for i, m in enumerate(config.measurements):
+        tab = table if table is not None else table_of(m, data, tables, source)
+        rows = block_table_rows(m, tab, None if block_rows is None else block_rows[i], source)
+        sample_idx = []
+        for r, v in zip(rows, joint_values(robot, tab, joint_cols, rows, data.joint_units)):
+            key = (str(tab.path), int(r))
+            if key not in samples:
+                samples[key] = len(values)
+                values.append(v)
+            sample_idx.append(samples[key])
+        residuals.append(residual_from_block(REGISTRY[m.type], m, source, tab, rows, np.array(sample_idx),
+                                             data.units, sigma))
+    chain = [j for j in joint_cols if j in default_joints(robot, config.frames)]
+    params = parameter_set(config.parameters, robot, chain, source)
+    directions = approach_directions(data.approach, params, robot, tables, samples, joint_cols, data.joint_units,
+                                     source)
+    problem = Problem(robot, params, list(joint_cols), np.array(values), residuals, directions)
+    apply_parameter_overrides(config.parameters, params, source)
+    return Setup(robot, problem, dataclasses.replace(config.solver), config.output.dir, config, tables,
+                 list(samples), joint_cols)
+
+
+def table_of(m: MeasurementConfig, data: DataConfig, tables: dict[str, Table], source: str) -> Table:
+    """The table a block reads: its own csv, else data.csv (read once)."""
+    path, key = (m.csv, f"{m.path}.csv") if m.csv is not None else (data.csv, "data.csv")
+    if path is None:
+        raise InputError("required key is missing", source=source, field=key)
+    if not path.is_file():
+        raise InputError(f"data file not found: {path}", source=source, field=key)
+    if str(path) not in tables:
+        tables[str(path)] = read_csv(path)
+    return tables[str(path)]
+
+
+def block_table_rows(m: MeasurementConfig, tab: Table, given, source: str) -> np.ndarray:
+    """The table rows a block reads: given, its `where` selection, or every row."""
+    if given is not None:
+        return np.asarray(given, dtype=int)
+    if m.where is not None:
+        col, val = m.where
+        try:
+            rows = tab.rows_where(str(col), val)
+        except InputError as exc:
+            raise InputError(exc.reason, source=exc.source, field=f"{m.path}.where.{col}") from None
+    else:
+        rows = np.arange(tab.n_rows)
+    if not len(rows):
+        key = f"{m.path}.where" if m.where else (f"{m.path}.csv" if m.csv is not None else "data.csv")
+        raise InputError(f"no data rows in {tab.path}" + (f" where {dict([m.where])}" if m.where else ""),
+                         source=source, field=key)
+    return rows
+
+
+def joint_columns(data: DataConfig, robot: Robot, frames: Sequence[str], source: str) -> dict[str, str]:
+    """{joint: CSV column} of `data.joints` (default: every joint moving a measured frame, same names)."""
+    cols = {j: j for j in default_joints(robot, frames)} if data.joints is None else dict(data.joints)
+    for j in cols:
+        try:
+            robot.joint_id(j)
+        except InputError as exc:
+            raise InputError(exc.reason, source=source, field="data.joints") from None
+    needed = set(default_joints(robot, frames))
+    missing = [j for j in robot.joint_names if j in needed and j not in cols]
+    if missing:
+        raise InputError(f"joints {', '.join(missing)} move the measured frames but have no column", source=source,
+                         field="data.joints")
+    return cols
+
+
+def build_robot(rc: RobotConfig, source: str) -> Robot:
+    """The robot of the `robot:` section, with its base placement and added frames."""
+    if rc.urdf is not None:
+        robot = load_urdf(rc.urdf, package_dirs=[str(d) for d in rc.package_dirs])
+    else:
+        try:
+            robot = load_example(rc.example)
+        except InputError as exc:
+            raise InputError(exc.reason, source=source, field="robot.example") from None
+    robot.base_placement = se3(rc.base)
+    for i, f in enumerate(rc.frames):
+        try:
+            robot.add_frame(f.name, f.parent, se3(f.placement))
+        except InputError as exc:
+            if exc.field and exc.source == source:
+                raise
+            raise InputError(exc.reason, source=source, field=f"robot.frames[{i}]") from None
+    return robot
+
+
+def se3(p: Placement) -> pin.SE3:
+    return pin.SE3(pin.rpy.rpyToMatrix(*np.asarray(p.rpy, float)), np.asarray(p.xyz, float))
