@@ -160,3 +160,20 @@ def test_a_fit_beyond_the_scene_limit_draws_a_subset_and_says_so(tmp_path, capsy
     assert "5 of " in (out / "report.html").read_text() and (out / "result.json").is_file()
     assert main(["view", str(out), "--html", str(tmp_path / "v.html")]) == 0
     assert f"5 of {drawn['of']} samples drawn" in (tmp_path / "v.html").read_text()
+
+
+def test_every_command_takes_quiet():
+    from robocal.cli.main import build_parser, subcommands
+    missing = [p.prog for p in subcommands(build_parser())
+               if not any("--quiet" in a.option_strings for a in p._actions)]
+    assert not missing, missing
+
+
+def test_quiet_calibrate_prints_the_status_and_the_error_table_only(tmp_path, capsys):
+    assert main(["demo", "-o", str(tmp_path / "q"), "-q", "--no-report"]) == 0
+    quiet = capsys.readouterr()
+    assert main(["demo", "-o", str(tmp_path / "v"), "--no-report"]) == 0
+    loud = capsys.readouterr()
+    assert "Calibration converged" in quiet.out and "RMS after" in quiet.out
+    assert "Estimated parameters" not in quiet.out and "Estimated parameters" in loud.out
+    assert quiet.err == "" and len(quiet.out.splitlines()) < 12

@@ -15,13 +15,19 @@ def progress(it):
           f"damping {it.damping:9.3g}", file=sys.stderr, flush=True)
 
 
+def brief(summary: str) -> str:
+    """The summary up to the error table (status, refusals, errors per block and session), for --quiet."""
+    head = summary.split("\nEstimated parameters", 1)[0].rstrip()
+    return head + "\n(every parameter and the identifiability: summary.txt)" if head != summary.rstrip() else head
+
+
 def print_run(run: CalibrationRun, quiet: bool, warnings: list[str] = ()) -> int:
     """The summary on stdout; warnings on stderr, and (not with --quiet) notes and the files written; the
     exit code: 0, or 3 for a fit that is refused or rejected."""
     result = run.result
     for warning in [*warnings, *run.warnings]:
         print(f"robocal: {warning}", file=sys.stderr)
-    print(result.summary())
+    print(brief(result.summary()) if quiet else result.summary())
     if not quiet:
         for note in run.notes:
             print(f"robocal: {note}", file=sys.stderr)

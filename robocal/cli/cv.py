@@ -11,6 +11,9 @@ def cmd_cv(args) -> int:
     for note in notes:
         print(f"robocal: {note}", file=sys.stderr)
     u = table.unit
+    if args.quiet:
+        print(f"held-out RMS {table.rms:.4g} {u} +- {table.stderr:.2g} {u} ({label})")
+        return 0
     print(f"Cross-validation of {args.config}, {label}: RMS of the error norm ({u}), each fold fitted without "
           "its samples")
     print(f"  {'fold':>4}{'held out':>10}{'train RMS':>12}{'held-out RMS':>14}  status")
@@ -19,14 +22,18 @@ def cmd_cv(args) -> int:
         print(f"  {k:>4}{len(f['held_out_samples']):>10}{f['train_rms_norm']:>12.4g}{va:>14}  {f['status']}")
     print(f"Overall: train RMS {table.train_rms:.4g} {u}, held-out RMS {table.rms:.4g} {u} "
           f"+- {table.stderr:.2g} {u} (standard error across folds)")
+    for unit, v in table.others.items():
+        print(f"         orientation: train RMS {v['train']:.4g} {unit}, held-out RMS {v['rms']:.4g} {unit} "
+              f"+- {v['stderr']:.2g} {unit}")
     return 0
 
 
 def add_fold_arguments(parser) -> None:
     """--folds K | --loo | --group COLUMN (shared by cv and select)."""
     how = parser.add_mutually_exclusive_group()
-    how.add_argument("--folds", type=int, help="K interleaved folds (default 5)")
-    how.add_argument("--loo", action="store_true", help="leave one sample out")
+    how.add_argument("--folds", type=int, help="K folds of whole postures (default 5; with sessions: one per "
+                                                "session)")
+    how.add_argument("--loo", action="store_true", help="leave one posture out (repeats of a posture together)")
     how.add_argument("--group", metavar="COLUMN", help="leave one group out: samples sharing this CSV column's value")
 
 

@@ -15,7 +15,8 @@ def cmd_evaluate(args) -> int:
         raise InputError("no config.yaml in the result folder: pass --config CALIB.yaml (the config it was "
                          "fitted with)", source=str(config), field="--config")
     report = evaluate_result(folder, Path(args.data).resolve(), config, args.refit)
-    print(f"Evaluation of {folder} on {report.data}")
+    if not args.quiet:
+        print(f"Evaluation of {folder} on {report.data}")
     print("Refitted on this session: " + (", ".join(report.refitted) or "nothing (--refit PATTERN re-registers "
                                                                       "a frame per session, e.g. 'base.*')"))
     print("RMS and max of the error norm (3D per point / orientation), samples inside / outside the training "
@@ -27,13 +28,17 @@ def cmd_evaluate(args) -> int:
             if st["n"]:
                 print(f"  {b['name']:<20}{b['norm_of']:<22}{part.split('_')[0]:<10}{st['n']:>5}"
                       f"{st['rms_norm']:>9.4g} {b['unit']:<2}{st['max_norm']:>9.4g} {b['unit']}")
+        for label, st in (b.get("points") or {}).items():
+            print(f"  {b['name'] + ' ' + label:<20}{'3D position error':<22}{'all':<10}{st['n']:>5}"
+                  f"{st['rms_norm']:>9.4g} {b['unit']:<2}{st['max_norm']:>9.4g} {b['unit']}")
     for o in report.outside:
         beyond = ", ".join(f"{j} {v:+.3g}" for j, v in o["beyond_range"].items())
         print(f"  outside the training range: CSV line {o['csv_line']} ({beyond}, SI)")
     path, note = write_evaluation(folder, report)
-    if note:
-        print(f"robocal: {note}", file=sys.stderr)
-    print(f"\nWrote {path}")
+    if not args.quiet:
+        if note:
+            print(f"robocal: {note}", file=sys.stderr)
+        print(f"\nWrote {path}")
     return 0
 
 

@@ -25,14 +25,16 @@ def cmd_run(args) -> int:
         logging.getLogger(distributed.__name__).setLevel(logging.WARNING)
 
     where = f"scheduler {args.scheduler}" if args.scheduler else f"a local cluster of {args.workers or 'all'} workers"
-    print(f"robocal fleet: {args.fleet} on {where}", file=sys.stderr)
+    if not args.quiet:
+        print(f"robocal fleet: {args.fleet} on {where}", file=sys.stderr)
     run = run_fleet(args.fleet, scheduler=args.scheduler, workers=args.workers,
                     progress=None if args.quiet else _progress)
     print(f"{run.units} units: {run.skipped} already in the table, {run.calibrated} calibrated"
           + ("" if not run.statuses else " (" + ", ".join(f"{n} {s}" for s, n in sorted(run.statuses.items())) + ")"))
     for r in run.failures:
         print(f"  {r['key']}: {r['status']}: {r.get('message') or ''}")
-    print(f"Wrote {run.table_path}")
+    if not args.quiet:
+        print(f"Wrote {run.table_path}")
     return 3 if run.failures else 0
 
 
@@ -48,7 +50,8 @@ def cmd_report(args) -> int:
         print(f"robocal: no HTML page ({exc.name} is not installed: pip install 'robocal[viz]')", file=sys.stderr)
         return 0
     write_atomic(out, fleet_page(rep).encode("utf-8"))
-    print(f"\nWrote {out}")
+    if not args.quiet:
+        print(f"\nWrote {out}")
     return 0
 
 

@@ -18,7 +18,8 @@ def cmd_identify(args) -> int:
                          field="output")
     files = write_identification(res, target, args.force)
     print(files["summary.txt"].read_text(encoding="utf-8"), end="")      # what was written, not a second run
-    print(f"\nWrote {', '.join(str(f) for f in files.values())}")
+    if not args.quiet:
+        print(f"\nWrote {', '.join(str(f) for f in files.values())}")
     return 0
 
 

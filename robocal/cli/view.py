@@ -51,7 +51,8 @@ def cmd_view(args) -> int:
         view = SceneView(scene, meshes=not args.no_meshes)
         out = Path(args.html).resolve()
         out.write_text(view.static_html(args.sample - 1), encoding="utf-8")
-        print(f"Wrote {out}")
+        if not args.quiet:
+            print(f"Wrote {out}")
         if args.open:
             webbrowser.open(out.as_uri())
         return 0
@@ -92,5 +93,6 @@ def cmd_report(args) -> int:
 
     path = write_report(args.result, args.output, meshes=not args.no_meshes)
     add_to_manifest(path)       # a report written into a result folder is robocal's: --force may replace it
-    print(f"Wrote {path}")
+    if not args.quiet:
+        print(f"Wrote {path}")
     return 0

@@ -25,6 +25,7 @@ from robocal.estimation.physical_scale import (DETERMINED_ANGLE, DETERMINED_LENG
 from robocal.estimation.plausibility import check_fit, nominal_values
 from robocal.estimation.registration import DefaultPrior, apply_default_prior, data_rows, register_nominal
 from robocal.estimation.problem import Evaluation, Problem
+from robocal.estimation.session_figures import session_figures
 from robocal.estimation.result import BlockStats, CalibrationResult, block_statistics
 from robocal.estimation.solve import Iteration, levenberg_marquardt, r_factor, triangle
 
@@ -149,6 +150,7 @@ def calibrate(problem: Problem, options: CalibrationOptions | None = None,
         params=params, requested=requested, selection=selection, covariance=cov, before=before, after=after,
         solve=sol, dof=dof, sigma2=sigma2, condition=final_sel.condition, ill_conditioned=ill,
         condition_limit=opt.condition_limit, n_rows=m, prior_only=prior_only)
+    result.sessions = session_figures(problem)
     free = params.free_names
     data_rows_now = data_rows(problem, len(ev.r))
     # the data rows' column geometry: the solver's triangle when every row is data, else factored here; the

@@ -9,13 +9,16 @@ against a training set. See docs/validation.md.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from robocal.estimation.calibrate import CalibrationOptions, calibrate
 from robocal.estimation.problem import Problem
-from robocal.estimation.prediction_errors import BlockErrors, PointStats, primary_errors, subset_residual, term_errors
+from robocal.errors import InputError
+from robocal.estimation.prediction_errors import (UNITS, BlockErrors, PointStats, norm_errors, subset_residual,
+                                                 term_errors)
+from robocal.estimation.registration import fit_subset
 
 def kfold(n_samples: int, k: int) -> list[np.ndarray]:
     """k interleaved folds of sample indices (fold i = i, i + k, ...): deterministic; k = n: leave-one-out."""
@@ -90,44 +93,113 @@ def cross_validate(problem: Problem, folds: list[np.ndarray], options: Calibrati
     return CrossValidation(blocks, values, ranks)
 
 
+def posture_folds(values: np.ndarray, k: int, tol: float = 0.01) -> list[np.ndarray]:
+    """k folds of whole postures: samples whose every joint agrees within `tol` (rad or m) are one posture and
+    stay in one fold (a repeat in training would predict its twin); postures are dealt to the folds in order
+    of first appearance, interleaved. k >= number of postures: leave-one-posture-out. Deterministic."""
+    values = np.atleast_2d(np.asarray(values, dtype=float))
+    label = -np.ones(len(values), dtype=int)
+    n_postures = 0
+    for i in range(len(values)):
+        if label[i] < 0:
+            same = (label < 0) & np.all(np.abs(values - values[i]) <= tol, axis=1)
+            label[same] = n_postures
+            n_postures += 1
+    k = min(k, n_postures)
+    if k < 2:
+        raise ValueError(f"need at least 2 distinct postures to hold one out, got {n_postures}")
+    return [np.flatnonzero(label % k == f) for f in range(k)]
+
+
+def session_folds(sessions) -> list[np.ndarray]:
+    """Leave-one-session-out: one fold per session (robocal.estimation.sessions)."""
+    return [sessions.samples_of(s) for s in range(len(sessions.names))]
+
+
+def held_out_frames(problem: Problem, fold: np.ndarray) -> list[str]:
+    """The frame parameters to register on a held-out fold before scoring it: a whole re-registered session's
+    own frame (base.* for the first session, base@<name>.* for the others), else none."""
+    sessions = problem.sessions
+    if sessions is None or not sessions.corrected:
+        return []
+    held = set(sessions.of_sample[fold].tolist())
+    if len(held) != 1 or len(fold) != np.sum(sessions.of_sample == next(iter(held))):
+        return []
+    s = held.pop()
+    names = sessions.parameter_names(s) if s else [n for n in problem.params.names if n.startswith("base.")]
+    return [n for n in names if n in problem.params.names and problem.params[n].vary]
+
+
 @dataclass
 class CVTable:
-    unit: str
-    folds: list[dict]             # per fold: n held out, train RMS, validation RMS
-    rms: float                    # held-out norm RMS over every held-out point
+    unit: str                     # the primary unit: mm when the blocks hold lengths, else mrad
+    folds: list[dict]             # per fold: n held out, train RMS, validation RMS (primary unit)
+    rms: float                    # held-out norm RMS over every held-out point (primary unit)
     stderr: float                 # its standard error across folds (delta method on the per-fold mean squares)
     train_rms: float
+    others: dict = field(default_factory=dict)   # other units (mrad of pose blocks): {unit: {rms, stderr, train}}
 
     def to_dict(self) -> dict:
         return {"unit": self.unit, "validation_rms_norm": self.rms, "validation_rms_stderr": self.stderr,
-                "train_rms_norm": self.train_rms, "folds": self.folds}
+                "train_rms_norm": self.train_rms, "folds": self.folds,
+                "other_units": {u: {"validation_rms_norm": v["rms"], "validation_rms_stderr": v["stderr"],
+                                    "train_rms_norm": v["train"]} for u, v in self.others.items()}}
+
 
 def cv_table(problem: Problem, folds: list[np.ndarray], options: CalibrationOptions | None = None) -> CVTable:
-    """Fit on all samples outside each fold, score train and held-out norm errors; `problem` is unchanged."""
+    """Fit on all samples outside each fold, score train and held-out norm errors per unit (mm, mrad); a fold
+    that is a whole re-registered session has its frame registered on its own data first (held_out_frames).
+    `problem` is unchanged."""
     opt = replace(options or CalibrationOptions(), register_before=False)
     initial = problem.params.copy()
     n = len(problem.values)
-    rows, held_sq, train_sq, unit = [], [], [], ""
+    rows, held, trained = [], {}, {}
     for fold in folds:
         train = np.setdiff1d(np.arange(n), fold)
         params = initial.copy()
         sub = Problem(problem.robot, params, problem.joint_names, problem.values,
-                      [subset_residual(r, train) for r in problem.residuals], problem.directions)
+                      [subset_residual(r, train) for r in problem.residuals], problem.directions, problem.sessions)
         result = calibrate(sub, opt)
-        _, tr, unit = primary_errors(term_errors(sub))
-        _, va, _ = primary_errors(term_errors(problem, params, [subset_residual(r, fold) for r in problem.residuals]))
-        held_sq.append(va ** 2)
-        train_sq.append(tr ** 2)
-        rows.append({"held_out_samples": [int(i) for i in fold], "train_rms_norm": float(np.sqrt(np.mean(tr ** 2))),
-                     "validation_rms_norm": float(np.sqrt(np.mean(va ** 2))) if len(va) else None,
+        tested = Problem(problem.robot, params, problem.joint_names, problem.values,
+                         [subset_residual(r, fold) for r in problem.residuals], problem.directions, problem.sessions)
+        frames = held_out_frames(problem, fold)
+        if frames:
+            fit_subset(tested, frames, opt)
+        tr, va = norms_by_unit(term_errors(sub)), norms_by_unit(term_errors(tested))
+        for unit in va:
+            held.setdefault(unit, []).append(va[unit] ** 2)
+            trained.setdefault(unit, []).append(tr.get(unit, np.zeros(0)) ** 2)
+        unit = next(iter(va))
+        rows.append({"held_out_samples": [int(i) for i in fold], "registered": frames,
+                     "train_rms_norm": float(np.sqrt(np.mean(tr[unit] ** 2))),
+                     "validation_rms_norm": float(np.sqrt(np.mean(va[unit] ** 2))) if len(va[unit]) else None,
                      "status": result.status})
-    allsq = np.concatenate(held_sq)
-    rms = float(np.sqrt(np.mean(allsq)))
-    # per-fold mean squares weighted by size; standard error of their mean, then d sqrt(x) = dx / (2 sqrt(x))
+    figures = {u: pooled(held[u], trained[u]) for u in held}
+    unit = next(iter(figures))
+    rms, se, tr = figures.pop(unit)
+    return CVTable(unit, rows, rms, se, tr, {u: {"rms": a, "stderr": b, "train": c} for u, (a, b, c) in figures.items()})
+
+
+def norms_by_unit(blocks: dict) -> dict[str, np.ndarray]:
+    """{unit: every point's (mm) or orientation's (mrad) error norm over all blocks}, lengths first."""
+    out: dict[str, list] = {}
+    for kind, (_, unit, _) in UNITS.items():
+        for b in blocks.values():
+            e = norm_errors(b).get(kind)
+            if e is not None:
+                out.setdefault(unit, []).append(e.reshape(-1))
+    if not out:
+        raise InputError("no length or angle measurement to score")
+    return {u: np.concatenate(v) for u, v in out.items()}
+
+
+def pooled(held_sq: list[np.ndarray], train_sq: list[np.ndarray]) -> tuple[float, float, float]:
+    """(held-out RMS over every held-out norm, its standard error across folds, train RMS)."""
+    rms = float(np.sqrt(np.mean(np.concatenate(held_sq))))
+    # per-fold mean squares; standard error of their mean, then d sqrt(x) = dx / (2 sqrt(x))
     per = np.array([np.mean(h) for h in held_sq if len(h)])
     se_ms = float(np.std(per, ddof=1) / np.sqrt(len(per))) if len(per) > 1 else float("nan")
-    return CVTable(unit, rows, rms, se_ms / (2 * rms) if rms > 0 else float("nan"),
-                   float(np.sqrt(np.mean(np.concatenate(train_sq)))))
+    return rms, se_ms / (2 * rms) if rms > 0 else float("nan"), float(np.sqrt(np.mean(np.concatenate(train_sq))))
 
 
 RANGE_MARGIN = 0.05     # rad or m: how far past a reference range a reading may lie and still count as inside

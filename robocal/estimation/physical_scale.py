@@ -27,7 +27,7 @@ ANGLE_SCALE = 0.01          # 10 mrad: joint zeros and axis directions within ab
 BEYOND = 10.0               # a fitted value this many scales from nominal is not a robot any more
 MIN_SIZE = 0.05             # m: floor of the robot size (a single joint has no spread of origins)
 MIN_LOAD = 1e-3             # N m: below this a joint carries no load worth a compliance scale
-REGISTRATION_KINDS = ("base", "auxiliary")        # plus the placement of a measured (tool) frame
+REGISTRATION_KINDS = ("base", "session_frame", "auxiliary")   # plus the placement of a measured (tool) frame
 ROBOT_KINDS = ("joint_placement", "joint_offset", "joint_compliance", "joint_backlash", "joint_tilt",
                "frame_placement")                 # a frame on the robot that no measurement looks at
 DETERMINED_LENGTH = 1e-4    # m: a parameter known to 0.1 mm is determined ...

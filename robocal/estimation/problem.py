@@ -13,12 +13,14 @@ import numpy as np
 from robocal.model.batch_kinematics import BatchKinematics, SampleConstants, supports_batch
 from robocal.model.closed_chain_batch import ClosedChainBatch, supports_closed_batch
 from robocal.model.kinematics import ModelState
+from robocal.estimation.sessions import (Sessions, SessionStates, correction_jacobian, correction_jacobians,
+                                         corrections, exp_jacobians, session_arrays)
 from robocal.model.parameters import ParameterSet
 from robocal.residuals.base import Residual
 from robocal.residuals.prior import prior_rows
 
 
-KIND_ORDER = {"base": 0, "auxiliary": 1}
+KIND_ORDER = {"base": 0, "session_frame": 0, "auxiliary": 1}
 EVALUATE_CHUNK_TERMS = 20_000   # terms of a batched residual evaluated at once
 
 
@@ -39,10 +41,11 @@ class Block:
 
 
 class Problem:
-    """joint_names: the joints each sample reads; values: (N, len(joint_names)) readings, SI."""
+    """joint_names: the joints each sample reads; values: (N, len(joint_names)) readings, SI; sessions: which
+    session each sample belongs to and the frames re-registered per session (robocal.estimation.sessions)."""
 
     def __init__(self, robot, params: ParameterSet, joint_names, values, residuals: list[Residual],
-                 directions=None):
+                 directions=None, sessions: Sessions | None = None):
         self.robot, self.params = robot, params
         self.joint_names = list(joint_names)
         self.values = np.asarray(values, dtype=float).reshape(-1, len(self.joint_names))
@@ -53,6 +56,13 @@ class Problem:
         if backlash and self.directions is None:
             raise ValueError(f"backlash parameters ({backlash[0]}, ...) need the approach direction of every "
                              "sample (Problem(..., directions=...); config: data.approach)")
+        self.sessions = sessions
+        if sessions is not None:
+            if len(sessions.of_sample) != len(self.values):
+                raise ValueError(f"sessions name {len(sessions.of_sample)} samples, the readings {len(self.values)}")
+            for p in sessions.parameters() if sessions.corrected else []:
+                if p.name not in params:
+                    params.add(p)
         self.residuals = list(residuals)
         names = [r.name for r in self.residuals]
         if len(set(names)) != len(names):
@@ -91,7 +101,17 @@ class Problem:
     def states(self, ms: ModelState | None = None) -> "LazyStates":
         ms = ms or self.model_state()
         ms.warm_starts = self.warm_starts   # closed chains: start each assembly from the last solution
-        return LazyStates(ms, self.values, self.directions)
+        states = LazyStates(ms, self.values, self.directions)
+        if self.sessions is not None and self.sessions.corrected:
+            return SessionStates(states, self.sessions, corrections(self.sessions, self.params))
+        return states
+
+    def session_columns(self, col: dict) -> list[list[list[tuple[int, float]]]]:
+        """Per session, per component of its correction: the (free column, coefficient) pairs (empty lists for
+        the reference session, and without sessions)."""
+        if self.sessions is None or not self.sessions.corrected:
+            return []
+        return [[col.get(n, []) for n in self.sessions.parameter_names(s)] for s in range(len(self.sessions.names))]
 
     def aux_values(self, res: Residual) -> np.ndarray:
         return np.array([self.params[p.name].value for p in res.aux_parameters()])
@@ -134,6 +154,9 @@ class Problem:
                 batch = ClosedChainBatch(ms, self.values, self.warm_starts, jacobian, used, self.closed_chain_cache)
         states = None
         gid = 0
+        session_cols = self.session_columns(col)
+        T = corrections(self.sessions, self.params) if session_cols else None
+        Jexp = exp_jacobians(self.sessions, self.params) if session_cols else None
         for res, block in zip(self.residuals, self.blocks):
             scale = res.row_scale()
             keep = scale != 0
@@ -149,7 +172,11 @@ class Problem:
                 group = gid + np.repeat(np.arange(k0, terms.stop), n_keep)
                 if batch is not None and res.batched:
                     fa = batch.frame(res.frame, res.samples[terms], jacobian)
-                    t = res.evaluate_batch(terms, fa.R, fa.p, aux)
+                    session = None if T is None else self.sessions.of_sample[res.samples[terms]]
+                    if session is None:
+                        t = res.evaluate_batch(terms, fa.R, fa.p, aux)
+                    else:
+                        t = res.evaluate_batch(terms, *session_arrays(fa.R, fa.p, T, session), aux)
                     Jt = None
                     if jacobian:
                         direct = out is not None and n_keep == res.dim
@@ -160,6 +187,9 @@ class Problem:
                                         out=out[rows].reshape(n_t, res.dim, n_free) if direct else None)
                         for j, c, w in aux_cols:
                             Jt[:, :, c] += w * t.aux[:, :, j] * scale
+                        if session is not None:
+                            add_session_columns(Jt, correction_jacobians(t.D * scale[:, None], fa.R, fa.p,
+                                                                         Jexp[session]), session, session_cols)
                         Jt = (Jt if n_keep == res.dim else Jt[:, keep]).reshape(n_t * n_keep, n_free)
                     raw = t.r if n_keep == res.dim else t.r[:, keep]
                     yield rows, (raw * scale[keep]).ravel(), raw.ravel(), group, Jt
@@ -174,6 +204,12 @@ class Problem:
                         Jt = np.zeros((res.dim, n_free))
                         for i, frame, D in t.frames:
                             Jt += D @ states[i].frame_parameter_jacobian(frame)
+                            if session_cols:
+                                s = int(self.sessions.of_sample[i])
+                                cj = correction_jacobian(D, states.raw[i].pose(frame), Jexp[s])
+                                for comp, pairs in enumerate(session_cols[s]):
+                                    for c, w in pairs:
+                                        Jt[:, c] += w * cj[:, comp]
                         for j, c, w in aux_cols:
                             Jt[:, c] += w * t.aux[:, j]
                         Jr[k - k0] = (Jt * scale[:, None])[keep]
@@ -194,6 +230,17 @@ class Problem:
             c = self._constants = SampleConstants(self.robot, self.joint_names, self.values, ms.needs_gravity,
                                                   ms.read_v_index)
         return c
+
+
+def add_session_columns(J: np.ndarray, CJ: np.ndarray, session: np.ndarray, session_cols) -> None:
+    """J (n, d, n_free) += each term's correction derivative CJ (n, d, 6) in its session's columns."""
+    for s, comps in enumerate(session_cols):
+        mask = session == s
+        if not mask.any():
+            continue
+        for comp, pairs in enumerate(comps):
+            for c, w in pairs:
+                J[mask, :, c] += w * CJ[mask, :, comp]
 
 
 class LazyStates:

@@ -9,6 +9,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from robocal.estimation.session_figures import session_lines
 from robocal.estimation.identifiability import BaseSelection
 from robocal.model.parameters import ParameterSet
 from robocal.estimation.solve import SolveResult
@@ -106,6 +107,7 @@ class CalibrationResult:
     determinacy: object | None = None      # robocal.estimation.determinacy.Determinacy
     default_prior: object | None = None    # robocal.estimation.registration.DefaultPrior
     registration: list[str] = field(default_factory=list)   # parameters fitted for the "before" figures
+    sessions: list[dict] = field(default_factory=list)      # per-session figures (estimation.session_figures)
     registration_values: dict[str, float] = field(default_factory=dict)   # their values in the "before" model
     robot_size: float | None = None        # m, the length the physical scales are relative to
     refusals: list = field(default_factory=list)            # robocal.estimation.plausibility.Refusal
@@ -168,6 +170,7 @@ class CalibrationResult:
     def to_dict(self) -> dict:
         return {
             "status": self.status,
+            **({"sessions": self.sessions} if self.sessions else {}),
             "success": self.success,
             "message": self.solve.message,
             "iterations": self.solve.nit,
@@ -216,6 +219,7 @@ class CalibrationResult:
             fmt = lambda d: ", ".join(f"{v:.4g} {k}" for k, v in d.items())
             lines.append(f"{b0.name:<20}{b0.type_name:<14}{b0.rows:>6}   {b0.headline():>30}   "
                          f"{b1.headline():>30}   {fmt(b1.rms):>22}")
+        lines += session_lines(self.sessions)
         lines += ["", "Estimated parameters (SI units):"]
         for name in self.params.free_names:
             p = self.params[name]

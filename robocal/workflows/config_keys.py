@@ -28,10 +28,11 @@ SIGMA = {"position": None, "orientation": None}
 SCHEMA: dict = {
     "robot": {"urdf": None, "example": None, "package_dirs": None, "base": PLACEMENT, "frames": [FRAME]},
     "data": {"csv": None, "joints": FREE, "units": UNITS, "joint_units": UNITS,
+             "sessions": [{"name": None, "csv": None}], "session_column": None,
              "approach": {"from": None, "sort_by": None, "threshold": UNITS, "initial": FREE, "columns": FREE}},
     "parameters": {"preset": None, "joints": None, "frames": FREE, "base": None, "compliance": None,
                    "backlash": None, "tilt": None, "fix": None, "free": None, "initial": FREE, "priors": FREE,
-                   "bounds": FREE},
+                   "bounds": FREE, "per_session": None},
     "measurements": MEASUREMENTS,
     "solver": {f.name: None for f in fields(CalibrationOptions)},
     "output": {"dir": None, "report": None},

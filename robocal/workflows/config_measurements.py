@@ -70,18 +70,19 @@ def accepts_measurements(cls) -> bool:
     return "measurements" in inspect.signature(cls.__init__).parameters
 
 
-def residual_from_block(cls, block: MeasurementConfig, source: str, tab: Table, rows, sample_idx, units: Units,
-                        sigma=None):
-    """The residual of one block of the config `source`; sigma (optional, data units) replaces the block's own
-    (robocal plan's noise)."""
+def residual_from_block(cls, block: MeasurementConfig, source: str, parts: list[tuple[Table, np.ndarray]],
+                        sample_idx, units: Units, sigma=None):
+    """The residual of one block of the config `source` over the rows it reads: parts, (table, rows) in order
+    (one per session file); sigma (optional, data units) replaces the block's own (robocal plan's noise)."""
     kwargs = dict(block.settings)
     sigma = block.sigma if sigma is None else sigma
     if sigma is not None:
         kwargs["sigma"] = sigma
     if accepts_measurements(cls):
         kinds = cls.column_kinds(len(block.columns))
-        data = [tab.column(c, k, getattr(units, k) if k else None, rows) for c, k in zip(block.columns, kinds)]
-        kwargs["measurements"] = np.column_stack(data)
+        kwargs["measurements"] = np.vstack([
+            np.column_stack([tab.column(c, k, getattr(units, k) if k else None, rows)
+                             for c, k in zip(block.columns, kinds)]) for tab, rows in parts])
         kwargs["columns"] = list(block.columns)
     try:
         res = cls(name=block.name, frame=block.frame, samples=sample_idx, **kwargs)

@@ -14,6 +14,7 @@ import numpy as np
 from robocal.design.candidates import MeasurementVolume
 from robocal.errors import InputError
 from robocal.estimation.calibrate import CalibrationOptions
+from robocal.estimation.sessions import SESSION_FRAMES
 from robocal.io.tables import ANGLE_UNITS, LENGTH_UNITS
 from robocal.io.yaml_files import read_yaml
 from robocal.model.approach import ApproachSpec
@@ -21,7 +22,8 @@ from robocal.model.parameters import COMPONENTS
 from robocal.workflows.config_keys import FILLED_BY_CONFIG, TOP_KEYS, Cfg, check_keys
 from robocal.workflows.config_types import (CalibrationConfig, CandidatesConfig, DataConfig, FrameSpec,
                                             Iso9283Config, MeasurementConfig, OutputConfig, ParametersConfig,
-                                            Placement, PlanConfig, RobotConfig, SimulationConfig, Units)
+                                            Placement, PlanConfig, RobotConfig, SessionSpec, SimulationConfig,
+                                            Units)
 from robocal.workflows.config_measurements import accepts_measurements, residual_class, sigma_argument
 
 #: keys of a block that are not its type's own settings
@@ -115,9 +117,29 @@ def data_config(data: Cfg, base_dir: Path) -> DataConfig:
         raise data.error("expected a list of joint names or a mapping joint -> column", "joints")
     csv = data.get("csv", types=str)
     approach = data.child("approach")
+    sessions = session_specs(data, base_dir)
+    column = data.get("session_column", types=str)
+    if sessions and (csv is not None or column is not None):
+        raise data.error("give the data as data.sessions (one CSV per session), or as data.csv with an optional "
+                         "data.session_column, not both", "sessions")
     return DataConfig(None if csv is None else (base_dir / csv).resolve(), joints, units_of(data.child("units", {})),
                       units_of(data.child("joint_units", {})),
-                      None if approach.value is None else approach_spec(approach))
+                      None if approach.value is None else approach_spec(approach), sessions, column)
+
+
+def session_specs(data: Cfg, base_dir: Path) -> tuple[SessionSpec, ...]:
+    """`data.sessions`: a list of {name, csv}, names distinct."""
+    out = []
+    for i, s in enumerate(data.get("sessions", [], types=list)):
+        node = Cfg(s, f"data.sessions[{i}]", data.source)
+        node.require_mapping()
+        name = str(node.get("name", required=True, types=(str, int)))
+        if any(o.name == name for o in out) or "@" in name or not name.strip():
+            raise node.error(f"session names must be distinct, non-empty and without '@', got {name!r}", "name")
+        out.append(SessionSpec(name, (base_dir / node.get("csv", required=True, types=str)).resolve()))
+    if len(out) == 1:
+        raise data.error("one session is no sessions: give data.csv instead, or list two or more", "sessions")
+    return tuple(out)
 
 
 def approach_spec(cfg: Cfg) -> ApproachSpec:
@@ -165,7 +187,17 @@ def parameters_config(cfg: Cfg) -> ParametersConfig:
                             tuple(map(str, cfg.get("fix", [], types=list))),
                             tuple(map(str, cfg.get("free", [], types=list))),
                             numbers_by_pattern(cfg, "initial"), numbers_by_pattern(cfg, "priors", positive=True),
-                            bounds_by_pattern(cfg))
+                            bounds_by_pattern(cfg), per_session(cfg))
+
+
+def per_session(cfg: Cfg) -> tuple[str, ...]:
+    """`parameters.per_session`: the frames re-registered in every session (default: the measurement frame)."""
+    frames = cfg.get("per_session", ["base"], types=list)
+    unknown = [f for f in frames if f not in SESSION_FRAMES]
+    if unknown:
+        raise cfg.error(f"a session re-registers {', '.join(SESSION_FRAMES)} (the measurement frame) only, not "
+                        f"{', '.join(map(str, unknown))}", "per_session")
+    return tuple(frames)
 
 
 def numbers_by_pattern(cfg: Cfg, key: str, positive: bool = False) -> dict[str, float]:

@@ -72,15 +72,26 @@ class Units:
 
 
 @dataclass(frozen=True)
+class SessionSpec:
+    """One session of `data.sessions`: its name and its CSV (same columns as every other session's)."""
+
+    name: str
+    csv: Path
+
+
+@dataclass(frozen=True)
 class DataConfig:
     """`data:` the main CSV, which column holds each joint (None: every joint moving a measured frame,
-    same names), the units of measurement and joint columns, and the approach directions (backlash)."""
+    same names), the units of measurement and joint columns, the approach directions (backlash), and the
+    sessions: several CSVs (`sessions`), or one CSV whose `session_column` names each row's session."""
 
     csv: Path | None = None
     joints: dict[str, str] | None = None
     units: Units = Units()
     joint_units: Units = Units()
     approach: ApproachSpec | None = None
+    sessions: tuple[SessionSpec, ...] = ()
+    session_column: str | None = None
 
     def to_dict(self) -> dict:
         out: dict = {}
@@ -94,13 +105,18 @@ class DataConfig:
             a = self.approach
             out["approach"] = {"from": a.source, **({"sort_by": a.sort_by} if a.sort_by else {}),
                                "threshold": dict(a.threshold), "initial": dict(a.initial), "columns": dict(a.columns)}
+        if self.sessions:
+            out["sessions"] = [{"name": s.name, "csv": str(s.csv)} for s in self.sessions]
+        if self.session_column is not None:
+            out["session_column"] = self.session_column
         return out
 
 
 @dataclass(frozen=True)
 class ParametersConfig:
     """`parameters:` which parameters the fit frees, and per-pattern fixes, initial values, priors, bounds
-    (SI: m and rad). joints None: the joints moving a measured frame."""
+    (SI: m and rad). joints None: the joints moving a measured frame. per_session: the frames re-registered
+    in every session (`base`, the measurement frame; robocal.estimation.sessions)."""
 
     preset: str = "full"
     joints: tuple[str, ...] | None = None
@@ -114,6 +130,7 @@ class ParametersConfig:
     initial: dict[str, float] = field(default_factory=dict)
     priors: dict[str, float] = field(default_factory=dict)
     bounds: dict[str, tuple[float | None, float | None]] = field(default_factory=dict)
+    per_session: tuple[str, ...] = ("base",)
 
     def to_dict(self) -> dict:
         out: dict = {}

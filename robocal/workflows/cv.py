@@ -6,7 +6,7 @@ from pathlib import Path
 import numpy as np
 
 from robocal.errors import InputError
-from robocal.estimation.cross_validation import CVTable, cv_table, kfold
+from robocal.estimation.cross_validation import CVTable, cv_table, posture_folds, session_folds
 from robocal.workflows.calibrate import check_units
 from robocal.workflows.setup import load_config
 
@@ -38,14 +38,22 @@ def group_folds(setup, column: str) -> list[np.ndarray]:
 
 
 def make_folds(setup, folds: int | None = None, loo: bool = False, group: str | None = None):
-    """(folds, description): `group` column -> leave-one-group-out, `loo` -> leave-one-out, else K interleaved
-    folds (default 5, fold i = samples i, i + K, ...)."""
-    n = len(setup.problem.values)
+    """(folds, description) of a config's samples (docs/validation.md, "Folds"):
+    `group` column -> leave-one-group-out; two or more sessions -> leave-one-session-out (unless K folds or
+    leave-one-out are asked for); `loo` -> leave-one-posture-out; else K folds of whole postures (default 5):
+    repeated postures are held out together, so a repeat in training never predicts its twin."""
+    problem = setup.problem
+    n = len(problem.values)
     if group:
         return group_folds(setup, group), f"leave-one-group-out on column '{group}'"
-    if loo:
-        return kfold(n, n), f"leave-one-out ({n} folds)"
-    k = folds or min(5, n)
-    if not 2 <= k <= n:
+    sessions = problem.sessions
+    if sessions is not None and not loo and folds is None:
+        return session_folds(sessions), f"leave-one-session-out ({len(sessions.names)} sessions)"
+    k = n if loo else folds or 5
+    if not loo and not 2 <= k <= n:
         raise InputError(f"need 2 <= folds <= {n} samples, got {k}", field="--folds")
-    return kfold(n, k), f"{k}-fold"
+    try:
+        out = posture_folds(problem.values, k)
+    except ValueError as exc:
+        raise InputError(str(exc), source=setup.source, field="data") from None
+    return out, (f"leave-one-posture-out ({len(out)} postures)" if loo else f"{len(out)}-fold by posture")

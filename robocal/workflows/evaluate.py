@@ -93,9 +93,13 @@ def evaluate_result(result_dir, csv, config, refit: list[str] | None = None,
         for kind, e in norm_errors(b).items():
             scale, unit, label = UNITS.get(kind, (1.0, kind, kind))
             s = b.samples if b.samples.ndim == 1 else b.samples[:, 0]
-            blocks.append({"name": name, "norm_of": label, "unit": unit, "all": norm_rms(e),
-                           "inside_training_range": norm_rms(e[~outside[s]]),
-                           "outside_training_range": norm_rms(e[outside[s]])})
+            entry = {"name": name, "norm_of": label, "unit": unit, "all": norm_rms(e),
+                     "inside_training_range": norm_rms(e[~outside[s]]),
+                     "outside_training_range": norm_rms(e[outside[s]])}
+            if kind == "length" and e.shape[1] > 1 and len(b.labels) == e.shape[1]:
+                # a rigid body's points one by one: the figure of each is what a single-point protocol scores
+                entry["points"] = {lab: norm_rms(e[:, j]) for j, lab in enumerate(b.labels)}
+            blocks.append(entry)
             for k, i in enumerate(s):
                 per_sample.setdefault(int(i), {"sample": int(i), "csv_line": setup.sample_rows[int(i)][1] + 2,
                                                "outside_training_range": bool(outside[i])})[

@@ -42,8 +42,11 @@ def load_result(result: str | Path) -> tuple[dict, Path]:
 
 
 def apply_result(params, result: dict, source: Path) -> None:
-    """Set `params` to a result's values; every parameter of the result must exist here (same robot)."""
+    """Set `params` to a result's values; every parameter of the result must exist here (same robot), except
+    the frames of the result's own sessions (another session has its own)."""
     for i, p in enumerate(result.get("parameters", [])):
+        if p.get("kind") == "session_frame" and p.get("name") not in params:
+            continue
         if p.get("name") not in params:
             raise InputError(f"parameter '{p.get('name')}' is not in this config's model: the result comes from "
                              "another robot or model", source=str(source), field=f"parameters[{i}].name")

@@ -19,6 +19,7 @@ import pinocchio as pin
 from robocal.errors import InputError
 from robocal.estimation.calibrate import CalibrationOptions
 from robocal.estimation.problem import Problem
+from robocal.estimation.sessions import Sessions
 from robocal.io.tables import Table, read_csv
 from robocal.model.robot import Robot, load_example, load_urdf
 from robocal.residuals import REGISTRY
@@ -104,27 +105,72 @@ def build_setup(config: CalibrationConfig, *, table: Table | None = None,
     tables: dict[str, Table] = {} if table is None else {str(table.path): table}
     samples: dict[tuple[str, int], int] = {}
     values: list[np.ndarray] = []
+    session_of: list[int] = []
+    names: list[str] = [s.name for s in data.sessions] if table is None else []
     residuals = []
     for i, m in enumerate(config.measurements):
-        tab = table if table is not None else table_of(m, data, tables, source)
-        rows = block_table_rows(m, tab, None if block_rows is None else block_rows[i], source)
-        sample_idx = []
-        for r, v in zip(rows, joint_values(robot, tab, joint_cols, rows, data.joint_units)):
-            key = (str(tab.path), int(r))
-            if key not in samples:
-                samples[key] = len(values)
-                values.append(v)
-            sample_idx.append(samples[key])
-        residuals.append(residual_from_block(REGISTRY[m.type], m, source, tab, rows, np.array(sample_idx),
-                                             data.units, sigma))
+        idx, rows_all = [], []
+        for s, tab in block_tables(m, data, table, tables, source):
+            rows = block_table_rows(m, tab, None if block_rows is None else block_rows[i], source)
+            labels = session_labels(tab, rows, data.session_column) if data.session_column and table is None else None
+            for n, (r, v) in enumerate(zip(rows, joint_values(robot, tab, joint_cols, rows, data.joint_units))):
+                key = (str(tab.path), int(r))
+                if key not in samples:
+                    samples[key] = len(values)
+                    values.append(v)
+                    if labels is not None and labels[n] not in names:
+                        names.append(labels[n])
+                    session_of.append(s if labels is None else names.index(labels[n]))
+                idx.append(samples[key])
+            rows_all.append((tab, rows))
+        residuals.append(residual_from_block(REGISTRY[m.type], m, source, rows_all, np.array(idx), data.units,
+                                             sigma))
     chain = [j for j in joint_cols if j in default_joints(robot, config.frames)]
     params = parameter_set(config.parameters, robot, chain, source)
     directions = approach_directions(data.approach, params, robot, tables, samples, joint_cols, data.joint_units,
                                      source)
-    problem = Problem(robot, params, list(joint_cols), np.array(values), residuals, directions)
+    sessions = (Sessions(tuple(names), np.array(session_of), config.parameters.per_session) if len(names) > 1
+                else None)
+    problem = Problem(robot, params, list(joint_cols), np.array(values), residuals, directions, sessions)
     apply_parameter_overrides(config.parameters, params, source)
     return Setup(robot, problem, dataclasses.replace(config.solver), config.output.dir, config, tables,
                  list(samples), joint_cols)
+
+
+def block_tables(m: MeasurementConfig, data: DataConfig, table: Table | None, tables: dict[str, Table],
+                 source: str) -> list[tuple[int, Table]]:
+    """(session index, table) of every table a block reads: the given table; each session's CSV; or its own
+    csv / data.csv (session 0; a session column may split it later)."""
+    if table is not None:
+        return [(0, table)]
+    if data.sessions:
+        if m.csv is not None:
+            raise InputError("with data.sessions every block reads the sessions' CSV files: remove the block's own "
+                             "csv (or give one session's rows through `where`)", source=source, field=f"{m.path}.csv")
+        return [(s, read_table(spec.csv, tables, source, f"data.sessions[{s}].csv"))
+                for s, spec in enumerate(data.sessions)]
+    return [(0, table_of(m, data, tables, source))]
+
+
+def read_table(path: Path, tables: dict[str, Table], source: str, key: str) -> Table:
+    if not path.is_file():
+        raise InputError(f"data file not found: {path}", source=source, field=key)
+    if str(path) not in tables:
+        tables[str(path)] = read_csv(path)
+    return tables[str(path)]
+
+
+def session_labels(tab: Table, rows, column: str) -> list[str]:
+    """The session named in `column` for each row (data.session_column)."""
+    if not tab.has(column):
+        raise InputError(f"no session column '{column}' (columns present: {', '.join(tab.header)})",
+                         source=str(tab.path), field=column)
+    k = tab.header.index(column)
+    labels = [tab.cells[int(r)][k].strip() for r in rows]
+    empty = [int(r) for r, lab in zip(rows, labels) if not lab]
+    if empty:
+        raise InputError("empty session label", source=str(tab.path), row=tab.line(empty[0]), field=column)
+    return labels
 
 
 def table_of(m: MeasurementConfig, data: DataConfig, tables: dict[str, Table], source: str) -> Table:
