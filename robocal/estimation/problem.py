@@ -98,12 +98,14 @@ class Problem:
     def model_state(self) -> ModelState:
         return ModelState(self.robot, self.params, self.joint_names)
 
-    def states(self, ms: ModelState | None = None) -> "LazyStates":
+    def states(self, ms: ModelState | None = None, params: ParameterSet | None = None):
+        """states[i]: sample i's state at `ms` (default: the current values), its poses in its session's
+        measurement frame (session corrections at `params`, default the problem's)."""
         ms = ms or self.model_state()
         ms.warm_starts = self.warm_starts   # closed chains: start each assembly from the last solution
         states = LazyStates(ms, self.values, self.directions)
         if self.sessions is not None and self.sessions.corrected:
-            return SessionStates(states, self.sessions, corrections(self.sessions, self.params))
+            return SessionStates(states, self.sessions, corrections(self.sessions, params or self.params))
         return states
 
     def session_columns(self, col: dict) -> list[list[list[tuple[int, float]]]]:

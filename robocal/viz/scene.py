@@ -30,7 +30,6 @@ from robocal.model.batch_kinematics import BatchKinematics, supports_batch
 from robocal.model.kinematics import ModelState
 from robocal.model.lie_arrays import quaternions
 from robocal.estimation.prediction_errors import subset_residual
-from robocal.estimation.problem import LazyStates
 from robocal.residuals.base import tilted_direction
 from robocal.viz.skeleton_layout import skeleton, skeleton_from_links
 from robocal.residuals.sphere_fit import fit_sphere
@@ -229,9 +228,10 @@ def scene_data(problem, result, params_before, ident: dict | None = None) -> dic
     frame_names = list(dict.fromkeys([lk["name"] for lk in links] + measured_frames + anchors))
     param_sets = {"before": params_before, "after": problem.params}
     models = {s: ModelState(robot, p, problem.joint_names) for s, p in param_sets.items()}
-    for ms in models.values():            # closed chains: assemble from the fit's last solutions
+    # each sample drawn in its own session's measurement frame; closed chains assemble from the fit's solutions
+    states = {s: problem.states(ms, param_sets[s]) for s, ms in models.items()}
+    for ms in models.values():            # a copy: drawing must not move the fit's own warm starts
         ms.warm_starts = dict(problem.warm_starts)
-    states = {s: LazyStates(ms, problem.values, problem.directions) for s, ms in models.items()}
     n = len(problem.values)
     drawn = drawn_samples(n)
     position = np.full(n, -1)
@@ -256,13 +256,13 @@ def scene_data(problem, result, params_before, ident: dict | None = None) -> dic
     return out
 
 
-def frame_poses(problem, ms: ModelState, states: LazyStates, frame_names: list[str],
+def frame_poses(problem, ms: ModelState, states, frame_names: list[str],
                 samples: np.ndarray | None = None) -> list:
     """[sample][frame] -> [x, y, z, qx, qy, qz, qw] world poses at `samples` (default all, increasing): all at
     once for a serial robot (robocal.model.batch_kinematics), else sample by sample (closed chains assemble
     their loops there)."""
     samples = np.arange(len(problem.values)) if samples is None else np.asarray(samples, dtype=int)
-    if not supports_batch(ms):
+    if not supports_batch(ms) or getattr(problem.sessions, "corrected", False):
         return [[_pose7(states[int(i)].pose(f)) for f in frame_names] for i in samples]
     batch = BatchKinematics(ms, problem.sample_constants(ms), problem.values, problem.directions)
     out = np.empty((len(samples), len(frame_names), 7))
