@@ -88,11 +88,12 @@ def steady_contact_ok(run, admittance):
     lo, hi = run.true_band
     sigma = 0.209 * ForceFilter(10.0).noise_gain()            # |dq^T K| x 5 mA: raw tangential noise
     bound = admittance * 9 * sigma * 1e3                       # mm/s
+    reasons = []
     if not (abs(lo - F_DES) <= TOL * F_DES and abs(hi - F_DES) <= TOL * F_DES):
-        return False, f"true force {lo:.2f}..{hi:.2f} N outside +-5 %"
+        reasons.append(f"true force {lo:.2f}..{hi:.2f} N outside +-5 %")
     if run.speed_ripple > bound:
-        return False, f"speed ripple {run.speed_ripple:.2f} mm/s above {bound:.2f}: a limit cycle"
-    return True, ""
+        reasons.append(f"speed ripple {run.speed_ripple:.2f} mm/s above {bound:.2f}: a limit cycle")
+    return not reasons, "; ".join(reasons)
 
 
 ADMITTANCE = 7.18e-4       # admittance_for_margins with the one-tick delay (benchmarks/force_regulation_realism.py)
