@@ -12,9 +12,10 @@ The loop closed by `PathGenerator` against a contact of stiffness k_e, linearise
   model's inertia and friction at the differenced acceleration and velocity:
       F_hat_k = dq^T [servo torque at t_k-1 - M (x_k - 2 x_k-1 + x_k-2)/T^2 - C (x_k - x_k-2)/(2 T)]
   (the contact force when the motion is slow, wrong by about m_eff (a - a_hat) when it is not);
-* an optional low-pass filter H(z) on F_hat (`ForceFilter`), y = H F_hat.
+* an optional low-pass filter H(z) on F_hat (`ForceFilter`), y = H F_hat;
+* an optional sensor delay of d ticks (positions and currents reach the controller late): z^-d.
 
-The open loop is L(z) = T a/(z - 1) H(z) P(z), P the setpoint-to-estimate response of the
+The open loop is L(z) = T a/(z - 1) z^-d H(z) P(z), P the setpoint-to-estimate response of the
 servo-contact-estimator chain, built exactly (matrix exponential over one period) from the per-tick
 linear map. `margins` gives the gain and phase margins and whether the closed loop is stable
 (eigenvalues of the closed-loop map); `admittance_for_margins` picks the largest admittance that
@@ -31,6 +32,7 @@ from scipy.linalg import expm
 
 from robocal.errors import InputError
 from robocal.dynamics.force_filter import ForceFilter
+from robocal.dynamics.stick_slip import StickSlipFriction
 
 _LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 
@@ -43,7 +45,8 @@ class TangentLoop:
     per-joint PID; friction (n,) N m s/rad, the friction slope at rest; direction (n,) rad/m, the
     joint motion per metre along the tangent with the orientation held (J^+ [u; 0]); jacobian_u
     (n,) m/rad, the tangent row u^T J (the contact spring acts through it); period s;
-    current_bandwidth rad/s of a first-order current loop (None: ideal, the torque is the PID's)."""
+    current_bandwidth rad/s of a first-order current loop (None: ideal, the torque is the PID's);
+    delay: sensor delay in ticks (the measurements reach the estimator that many ticks late)."""
 
     mass: np.ndarray
     kp: np.ndarray
@@ -54,12 +57,13 @@ class TangentLoop:
     jacobian_u: np.ndarray
     period: float = 0.004
     current_bandwidth: float | None = None
+    delay: int = 0
 
     def __post_init__(self):
         n = self.direction.size
         shapes = [np.shape(self.mass) == (n, n)] + [np.shape(v) == (n,) for v in
                                                     (self.kp, self.ki, self.kd, self.friction, self.jacobian_u)]
-        lag_ok = self.current_bandwidth is None or self.current_bandwidth > 0
+        lag_ok = (self.current_bandwidth is None or self.current_bandwidth > 0) and self.delay >= 0
         if not all(shapes) or not self.period > 0 or np.any(np.asarray(self.kp) <= 0) or not lag_ok:
             raise InputError("tangent loop: mass (n, n), gains, friction, direction and tangent row (n,), "
                              "kp > 0 and period > 0 required", field="mass")
@@ -91,11 +95,13 @@ class Margins:
 
 
 def tangent_loop(model: pin.Model, q: np.ndarray, frame_id: int, gains, tangent: np.ndarray,
-                 friction=None, period: float = 0.004, current_bandwidth: float | None = None) -> TangentLoop:
+                 friction=None, period: float = 0.004, current_bandwidth: float | None = None,
+                 delay: int = 0) -> TangentLoop:
     """Linearise the servoed arm at configuration q (at rest) for a path tangent (3,) at the tool.
 
     gains (kp, ki, kd) per joint as the simulator's servos use them; friction a FrictionModel or
-    None. The servos hold the tool on the path, so a setpoint step of r metres along u moves the
+    None (a `StickSlipFriction` enters through its sliding slope: viscous only, the dry part is
+    not linear at rest). The servos hold the tool on the path, so a setpoint step of r metres along u moves the
     joint setpoints by r J^+ [u; 0]."""
     u = np.asarray(tangent, float)
     u = u / np.linalg.norm(u)
@@ -104,11 +110,13 @@ def tangent_loop(model: pin.Model, q: np.ndarray, frame_id: int, gains, tangent:
     mass = pin.crba(model, data, q)
     mass = np.triu(mass) + np.triu(mass, 1).T
     slope = np.zeros(model.nv)
-    if friction is not None:   # d tau_f/dv at v = 0: Coulomb and Stribeck through the tanh, plus viscous
+    if isinstance(friction, StickSlipFriction):
+        slope = friction.viscous.copy()
+    elif friction is not None:   # d tau_f/dv at v = 0: Coulomb and Stribeck through the tanh, plus viscous
         slope = (friction.coulomb + friction.stribeck) / friction.smoothing + friction.viscous
     kp, ki, kd = (np.asarray(g, float).copy() for g in gains)
     return TangentLoop(mass, kp, ki, kd, slope, np.linalg.pinv(J) @ np.r_[u, 0.0, 0.0, 0.0], J[:3].T @ u, period,
-                       current_bandwidth)
+                       current_bandwidth, int(delay))
 
 
 def plant_map(loop: TangentLoop, stiffness: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
@@ -182,17 +190,14 @@ def open_loop(loop: TangentLoop, stiffness: float, admittance: float, frequencie
     z = np.exp(1j * 2 * np.pi * np.asarray(frequencies_hz, float) * T)
     P = _response(*plant_map(loop, stiffness), z)
     H = force_filter.response(z) if force_filter is not None else 1.0
-    return T * admittance / (z - 1.0) * H * P
+    return T * admittance / (z - 1.0) * H * P * z ** (-loop.delay)
 
 
 def closed_loop_matrix(loop: TangentLoop, stiffness: float, admittance: float,
                        force_filter: ForceFilter | None = None) -> np.ndarray:
     """Transition matrix of the closed loop (plant, filter, regulator) with f_des = 0."""
     A, B, C, D = plant_map(loop, stiffness)
-    if force_filter is not None:
-        Af, Bf, Cf, Df = force_filter.state_space()
-    else:
-        Af, Bf, Cf, Df = np.zeros((0, 0)), np.zeros(0), np.zeros(0), 1.0
+    Af, Bf, Cf, Df = _delayed_filter(loop.delay, force_filter)
     nf, T, a = Af.shape[0], loop.period, admittance
     # state [plant (holds r_k), filter, y_k]: y_k is the filtered estimate the next tick reads
     n_joints = loop.direction.size
@@ -206,6 +211,25 @@ def closed_loop_matrix(loop: TangentLoop, stiffness: float, admittance: float,
         fhat = C @ p + D * r_next
         return np.r_[A @ p + B * r_next, Af @ f + Bf * fhat, Cf @ f + Df * fhat]
     return np.column_stack([step(e) for e in np.eye(n)])
+
+
+def _delayed_filter(delay: int, force_filter: ForceFilter | None):
+    """(A, B, C, D) of the sensor delay (a shift register of `delay` ticks) followed by the filter."""
+    if force_filter is not None:
+        Af, Bf, Cf, Df = force_filter.state_space()
+    else:
+        Af, Bf, Cf, Df = np.zeros((0, 0)), np.zeros(0), np.zeros(0), 1.0
+    if delay == 0:
+        return Af, Bf, Cf, Df
+    nf = Af.shape[0]
+    Ad = np.eye(delay, k=-1)
+    A = np.zeros((delay + nf, delay + nf))
+    A[:delay, :delay] = Ad
+    A[delay:, delay - 1] = Bf
+    A[delay:, delay:] = Af
+    B = np.r_[1.0, np.zeros(delay - 1 + nf)]
+    C = np.r_[np.zeros(delay - 1), Df, Cf]
+    return A, B, C, 0.0
 
 
 def _grid(loop: TangentLoop, points: int) -> np.ndarray:

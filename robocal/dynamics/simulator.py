@@ -24,6 +24,7 @@ import pinocchio as pin
 from robocal.errors import InputError
 from robocal.dynamics.actuators import ActuatorModel
 from robocal.dynamics.friction import FrictionModel
+from robocal.dynamics.stick_slip import StickSlipFriction
 
 _LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 
@@ -55,12 +56,17 @@ class RobotSimulator:
     """model, frame_id (the TCP where the environment acts), actuator, friction, environment (with
     `wrench(x, v)`), gains (kp, ki, kd) per joint, period s, substeps per period, current_noise A
     (std of measured currents), quantisation A (current LSB, 0 = none), seed, current_bandwidth
-    rad/s of a first-order current loop (None: ideal)."""
+    rad/s of a first-order current loop (None: ideal), measurement_delay ticks (the controller reads
+    the positions and currents of that many periods ago; 0: the end of this period). friction may
+    be a `StickSlipFriction` (joints stick at rest; solved implicitly per substep)."""
 
     def __init__(self, model: pin.Model, frame_id: int, q0: np.ndarray, actuator: ActuatorModel,
                  friction: FrictionModel, environment, gains, period: float = 0.004, substeps: int = 4,
                  current_noise: float | np.ndarray = 0.0, quantisation: float = 0.0, seed: int = 0,
-                 current_bandwidth: float | None = None):
+                 current_bandwidth: float | None = None, measurement_delay: int = 0):
+        if measurement_delay < 0:
+            raise InputError(f"measurement delay must be >= 0 ticks, got {measurement_delay}",
+                             field="measurement_delay")
         if substeps < 1 or not period > 0:
             raise InputError("simulator needs period > 0 and substeps >= 1", field="substeps")
         if current_bandwidth is not None and not current_bandwidth > 0:
@@ -85,6 +91,11 @@ class RobotSimulator:
         for _ in range(model.njoints):
             self._fext.append(pin.Force.Zero())
         self.time = 0.0
+        self.delay = int(measurement_delay)
+        x0, _ = self.tcp_state()         # before the first period the sensors read the initial rest state
+        rest = TickMeasurement(self.q.copy(), self.v.copy(), self.current.copy(), self.current.copy(),
+                               self.environment.wrench(x0, np.zeros(3)))
+        self._pending = [rest] * self.delay
 
     def tcp_state(self) -> tuple[np.ndarray, np.ndarray]:
         """TCP position (3,) m and linear velocity (3,) m/s, world."""
@@ -117,9 +128,15 @@ class RobotSimulator:
             joint = m.frames[self.frame_id].parentJoint
             world = pin.SE3(np.eye(3), x).act(pin.Force(-wrench))   # environment on robot
             self._fext[joint] = d.oMi[joint].actInv(world)
-            tau = self.actuator.torque(self.current) - self.friction.torque(self.v)
-            a = pin.aba(m, d, self.q, self.v, tau, self._fext)
-            self.v = self.v + self.dt * a
+            if isinstance(self.friction, StickSlipFriction):
+                tau = self.actuator.torque(self.current) - self.friction.smooth_part(self.v)
+                v_free = self.v + self.dt * pin.aba(m, d, self.q, self.v, tau, self._fext)
+                mass = pin.crba(m, d, self.q)
+                mass = np.triu(mass) + np.triu(mass, 1).T
+                self.v = self.friction.implicit_velocity(mass, v_free, self.v, self.dt)
+            else:
+                tau = self.actuator.torque(self.current) - self.friction.torque(self.v)
+                self.v = self.v + self.dt * pin.aba(m, d, self.q, self.v, tau, self._fext)
             self.q = pin.integrate(m, self.q, self.v * self.dt)
             self.time += self.dt
         self.q_des_prev = q_des.copy()
@@ -129,5 +146,11 @@ class RobotSimulator:
         if self.lsb > 0:
             measured = np.round(measured / self.lsb) * self.lsb
         x, xd = self.tcp_state()
-        return TickMeasurement(self.q.copy(), self.v.copy(), measured, current_des.copy(),
-                               self.environment.wrench(x, xd))
+        now = TickMeasurement(self.q.copy(), self.v.copy(), measured, current_des.copy(),
+                              self.environment.wrench(x, xd))
+        if not self.delay:
+            return now
+        # the sensors' samples reach the controller `delay` ticks late; true_wrench stays current
+        self._pending.append(now)
+        old = self._pending.pop(0)
+        return TickMeasurement(old.q_mes, old.v_mes, old.current, old.current_des, now.true_wrench)
