@@ -18,4 +18,6 @@ REGISTRY: dict[str, type[Residual]] = {cls.type_name: cls for cls in (
     BallBarResidual, LaserLineResidual, StrutIKResidual, ToolAxisResidual, SphereArtefactResidual,
     ReprojectionResidual)}
 
-__all__ = ["Residual", "Term", "REGISTRY", *[c.__name__ for c in REGISTRY.values()]]
+from robocal.residuals.camera_model import CameraModel
+
+__all__ = ["Residual", "Term", "REGISTRY", "CameraModel", *[c.__name__ for c in REGISTRY.values()]]

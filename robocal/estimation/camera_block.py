@@ -164,3 +164,22 @@ def hand_eye_of(problem: Problem, setup: CameraSetup) -> pin.SE3:
         return pin.SE3(pin.exp3(v[3:]), v[:3].copy())
     s = problem.model_state().sample(problem.values[int(res.samples[0])])
     return s.pose(setup.attached_to).inverse() * s.pose(setup.frame)
+
+
+def separable_hand_eye(robot, params: ParameterSet, joint_names, reading, mount: str, frame: str,
+                       attached_to: str = "tool0", fixed: pin.SE3 | None = None) -> pin.SE3:
+    """The hand-eye transform as far as camera data can tell it: no image separates the last joint's zero from an
+    eye-in-hand camera's turn about that axis, nor the first joint's zero from an eye-to-hand camera's turn about
+    the base, so that offset is folded in. Eye-in-hand: the camera relative to `attached_to` at the last joint's
+    reading; eye-to-hand: the camera's pose `fixed` relative to the first joint at its reading (docs/camera.md).
+    `reading`: any one sample's joint readings (the result does not depend on it)."""
+    joints = list(joint_names)
+    zeroed = params.copy()
+    j = joints[-1] if mount == "eye_in_hand" else joints[0]
+    if f"{j}.offset" in zeroed:
+        zeroed[f"{j}.offset"].value = 0.0
+    s = ModelState(robot, params, joints).sample(reading)
+    sz = ModelState(robot, zeroed, joints).sample(reading)
+    if mount == "eye_in_hand":
+        return sz.pose(attached_to).inverse() * s.pose(frame)
+    return (s.pose(attached_to) * sz.pose(attached_to).inverse()).inverse() * fixed
