@@ -155,12 +155,11 @@ for spec, ours, how in rows:
 
 
 # ---- 4. under stiction: stick-slip joints, sensor delay, friction identified from simulated data ----
-from robocal.dynamics.force_scenario import Plant, deburr as deburr_real, identify_friction  # noqa: E402
-from robocal.dynamics.stick_slip import StickSlipFriction  # noqa: E402
+from robocal.dynamics import StickSlipFriction, force_scenario  # noqa: E402
 
 coulomb = np.array([3, 3, 2, 1, 1, 0.8])
-plant = Plant(model, tcp, q0, actuator, StickSlipFriction(coulomb, 1.25 * coulomb, [5, 5, 3, 1, 1, 1], 0.01), gains)
-ident = identify_friction(plant)
+plant = force_scenario.Plant(model, tcp, q0, actuator, StickSlipFriction(coulomb, 1.25 * coulomb, [5, 5, 3, 1, 1, 1], 0.01), gains)
+ident = force_scenario.identify_friction(plant)
 real_loop = tangent_loop(model, q0, tcp, gains, along, plant.friction, TS, delay=plant.delay)
 real_admittance = admittance_for_margins(real_loop, 1e5, force_filter, min_stiffness=1e3)
 print("\nunder stiction (breakaway 1.25 x Coulomb, Stribeck 0.01 rad/s), 5 mA noise, 1 tick sensor delay, "
@@ -172,6 +171,6 @@ print("| design (identified friction) | true F_T, last second [N] | speed p-p [m
       "| free-space feed [mm/s] |\n|---|---|---|---|---|")
 for name, kwargs in (("former: raw estimate, admittance 7.58e-4", dict(observer=False)),
                      ("contact observer", dict(admittance=real_admittance))):
-    r = deburr_real(plant, ident.friction, model=ident.model(model), **kwargs)
+    r = force_scenario.deburr(plant, ident.friction, model=ident.model(model), **kwargs)
     print(f"| {name} | {r.true_band[0]:.2f}..{r.true_band[1]:.2f} | {r.speed_ripple:.2f} | {r.free_bias:+.2f} "
           f"| {r.feed_speed:.1f} |")

@@ -19,7 +19,7 @@ YAML_READERS = ("robocal.io.yaml_files", "robocal.workflows")
 MAX_LINES = 400
 # imported inside functions on purpose: optional extras ([viz], [fast], [fleet], [test]) and the pages
 # built on them, so a core install imports without them; and heavy libraries of one CLI command
-OPTIONAL = ("numba", "meshcat", "matplotlib", "dask", "distributed", "pyarrow", "hypothesis",
+OPTIONAL = ("numba", "meshcat", "matplotlib", "dask", "distributed", "pyarrow", "hypothesis", "cv2",
             "robocal.viz.meshcat_check", "robocal.viz.report", "robocal.viz.plots", "robocal.viz.fleet_plots",
             "robocal.workflows.fleet",
             # the dynamics stack (scipy.signal, scipy.stats) only for `robocal identify`: CLI start-up

@@ -21,6 +21,8 @@ from robocal.dynamics.path import CircularPath, JointPath, LinearPath, SplinePat
 from robocal.dynamics.payload import payload_inertia, with_payload
 from robocal.dynamics.regulator import TangentialForceRegulator
 from robocal.dynamics.simulator import RobotSimulator, servo_gains
+from robocal.dynamics.stick_slip import StickSlipFriction
+from robocal.dynamics.contact_observer import ContactForceObserver, ObserverSettings
 from robocal.dynamics.wrench import WrenchEstimate, WrenchMapper
 
 __all__ = [
@@ -29,7 +31,7 @@ __all__ = [
     "from_setpoints", "ExternalForceEstimator", "ExternalForceEstimate", "WrenchMapper", "WrenchEstimate",
     "ForceSensorSource", "payload_inertia", "with_payload", "LinearPath", "JointPath", "CircularPath",
     "SplinePath", "project_limits", "TangentialForceRegulator", "MotionParams", "MotionInstruction", "movejf",
-    "movelf", "PathGenerator", "Setpoint", "RobotSimulator", "servo_gains", "Wall",
+    "movelf", "PathGenerator", "Setpoint", "RobotSimulator", "servo_gains", "StickSlipFriction", "ContactForceObserver", "ObserverSettings", "Wall",
     "ViscousLoad", "ConstantForce", "Environment", "FourierTrajectory", "fourier_excitation", "Segment",
     "identify_dynamics", "identify_payload", "DynamicIdentificationResult", "PayloadResult",
 ]

@@ -11,7 +11,9 @@ The robot size is the largest distance between the origins of the read joints (a
 nominal zero configuration of the URDF. The frames the config lets float to register the robot with the
 measurement (base, measurement set-up, the measured tool frames) have no physical scale: they may be
 anywhere; a calibrated frame that no measurement looks at (a loop's attachment) is robot geometry.
-Transmission parameters (screw lead, ratio) have none either; they are left to the data.
+Transmission parameters (screw lead, ratio) have none either; they are left to the data. A residual may give
+some of its set-up quantities a scale of its own (`Residual.aux_scales`: a camera's intrinsics, within a few per
+cent of their prior calibration); they are still registered with the frames, and get the default prior too.
 """
 from __future__ import annotations
 
@@ -107,7 +109,12 @@ def physical_scales(problem, det_length: float = DETERMINED_LENGTH, det_angle: f
     loads = joint_loads(robot, joints, problem.values) if needs_load else {}
     scale, det = {}, {}
     measured = measured_frames(problem)
+    # set-up quantities with a physical scale of their own (a camera's intrinsics): the residual says it
+    declared = {n: v for r in problem.residuals for n, v in r.aux_scales().items()}
     for p in params:
+        if p.name in declared:
+            scale[p.name], det[p.name] = declared[p.name]
+            continue
         if is_registration(p, measured):
             if p.unit in ("m", "rad"):
                 det[p.name] = det_length if p.unit == "m" else det_angle      # determinable, never out of scale

@@ -172,6 +172,8 @@ class Problem:
                 n_t = terms.stop - terms.start
                 rows = slice(block.rows.start + k0 * n_keep, block.rows.start + terms.stop * n_keep)
                 group = gid + np.repeat(np.arange(k0, terms.stop), n_keep)
+                # a per-term sigma (res.term_scale) makes the row scale (n_t, dim)
+                sc = scale if res.term_scale is None else scale * res.term_scale[terms, None]
                 if batch is not None and res.batched:
                     fa = batch.frame(res.frame, res.samples[terms], jacobian)
                     session = None if T is None else self.sessions.of_sample[res.samples[terms]]
@@ -184,24 +186,25 @@ class Problem:
                         direct = out is not None and n_keep == res.dim
                         # the row scales and the frame's placement folded into the (n, dim, 6) derivative:
                         # no extra pass over J (the stack times one matrix as one GEMM)
-                        M = ((t.D * scale[:, None]).reshape(-1, 6) @ fa.to_frame).reshape(t.D.shape)
+                        M = ((t.D * sc[..., None]).reshape(-1, 6) @ fa.to_frame).reshape(t.D.shape)
                         Jt = fa.project(M,
                                         out=out[rows].reshape(n_t, res.dim, n_free) if direct else None)
                         for j, c, w in aux_cols:
-                            Jt[:, :, c] += w * t.aux[:, :, j] * scale
+                            Jt[:, :, c] += w * t.aux[:, :, j] * sc
                         if session is not None:
-                            add_session_columns(Jt, correction_jacobians(t.D * scale[:, None], fa.R, fa.p,
+                            add_session_columns(Jt, correction_jacobians(t.D * sc[..., None], fa.R, fa.p,
                                                                          Jexp[session]), session, session_cols)
                         Jt = (Jt if n_keep == res.dim else Jt[:, keep]).reshape(n_t * n_keep, n_free)
                     raw = t.r if n_keep == res.dim else t.r[:, keep]
-                    yield rows, (raw * scale[keep]).ravel(), raw.ravel(), group, Jt
+                    yield rows, (raw * sc[..., keep]).ravel(), raw.ravel(), group, Jt
                     continue
                 states = states or self.states(ms)
                 r, raw = np.empty((n_t, n_keep)), np.empty((n_t, n_keep))
                 Jr = np.zeros((n_t, n_keep, n_free)) if jacobian else None
                 for k in range(terms.start, terms.stop):
                     t = res.evaluate(k, states, aux)
-                    raw[k - k0], r[k - k0] = t.r[keep], (t.r * scale)[keep]
+                    sk = scale if res.term_scale is None else scale * res.term_scale[k]
+                    raw[k - k0], r[k - k0] = t.r[keep], (t.r * sk)[keep]
                     if jacobian:
                         Jt = np.zeros((res.dim, n_free))
                         for i, frame, D in t.frames:
@@ -214,7 +217,7 @@ class Problem:
                                         Jt[:, c] += w * cj[:, comp]
                         for j, c, w in aux_cols:
                             Jt[:, c] += w * t.aux[:, j]
-                        Jr[k - k0] = (Jt * scale[:, None])[keep]
+                        Jr[k - k0] = (Jt * sk[:, None])[keep]
                 yield rows, r.ravel(), raw.ravel(), group, (Jr.reshape(n_t * n_keep, n_free) if jacobian else None)
             gid += res.n_terms
         if not (self.blocks and self.blocks[-1].type_name == "prior"):    # the layout has no prior rows

@@ -14,10 +14,11 @@ from robocal.estimation.identifiability import BaseSelection
 from robocal.model.parameters import ParameterSet
 from robocal.estimation.solve import SolveResult
 
-UNIT_SCALE = {"length": (1e3, "mm"), "angle": (1e3, "mrad"), "prior": (1.0, "sigma")}
+UNIT_SCALE = {"length": (1e3, "mm"), "angle": (1e3, "mrad"), "pixel": (1.0, "px"), "prior": (1.0, "sigma")}
 
 
-NORM_LABEL = {"length": "3D position error", "angle": "3D orientation error"}
+NORM_LABEL = {"length": "3D position error", "angle": "3D orientation error", "pixel": "2D reprojection error"}
+GROUP = {"pixel": 2}     # rows of one error vector per kind (a pixel has two; points and rotations three)
 
 
 @dataclass
@@ -48,9 +49,10 @@ class BlockStats:
 
 
 def term_norms(raw: np.ndarray, units: np.ndarray, group: np.ndarray, kind: str) -> tuple[np.ndarray, bool]:
-    """Error norm of each point (triple of `kind` rows of one term) or |row|, terms in order of first
-    appearance; True if every term has a nonzero multiple of three `kind` rows. Whole-array: one pass, not
-    one mask per term (which made a 10000-pose fit spend seconds here)."""
+    """Error norm of each point (triple of `kind` rows of one term; a pair for pixels) or |row|, terms in order of
+    first appearance; True if every term has a nonzero multiple of three (two) `kind` rows. Whole-array: one pass,
+    not one mask per term (which made a 10000-pose fit spend seconds here)."""
+    g = GROUP.get(kind, 3)
     if not len(group):
         return np.zeros(0), True
     ids, first, inverse = np.unique(group, return_index=True, return_inverse=True)
@@ -59,10 +61,10 @@ def term_norms(raw: np.ndarray, units: np.ndarray, group: np.ndarray, kind: str)
     sel = (np.asarray(units) == kind)[order]
     v, t = raw[order][sel], term[order][sel]
     counts = np.bincount(t, minlength=len(ids))
-    in_triples = (counts % 3 == 0) & (counts > 0)
+    in_triples = (counts % g == 0) & (counts > 0)
     tri_row = in_triples[t]
-    tri_pos, abs_pos = np.flatnonzero(tri_row)[::3], np.flatnonzero(~tri_row)
-    values = np.concatenate([np.linalg.norm(v[tri_row].reshape(-1, 3), axis=1), np.abs(v[~tri_row])])
+    tri_pos, abs_pos = np.flatnonzero(tri_row)[::g], np.flatnonzero(~tri_row)
+    values = np.concatenate([np.linalg.norm(v[tri_row].reshape(-1, g), axis=1), np.abs(v[~tri_row])])
     return values[np.argsort(np.concatenate([tri_pos, abs_pos]), kind="stable")], bool(in_triples.all())
 
 

@@ -6,6 +6,7 @@ from robocal.residuals.laser_line import LaserLineResidual
 from robocal.residuals.plane import PlaneResidual
 from robocal.residuals.point import PointResidual
 from robocal.residuals.pose import PoseResidual
+from robocal.residuals.reprojection import ReprojectionResidual
 from robocal.residuals.rigid_points import RigidPointsResidual
 from robocal.residuals.sphere import SphereResidual
 from robocal.residuals.sphere_artefact import SphereArtefactResidual
@@ -14,6 +15,9 @@ from robocal.residuals.tool_axis import ToolAxisResidual
 
 REGISTRY: dict[str, type[Residual]] = {cls.type_name: cls for cls in (
     PoseResidual, PointResidual, RigidPointsResidual, PlaneResidual, SphereResidual, CylinderResidual,
-    BallBarResidual, LaserLineResidual, StrutIKResidual, ToolAxisResidual, SphereArtefactResidual)}
+    BallBarResidual, LaserLineResidual, StrutIKResidual, ToolAxisResidual, SphereArtefactResidual,
+    ReprojectionResidual)}
 
-__all__ = ["Residual", "Term", "REGISTRY", *[c.__name__ for c in REGISTRY.values()]]
+from robocal.residuals.camera_model import CameraModel
+
+__all__ = ["Residual", "Term", "REGISTRY", "CameraModel", *[c.__name__ for c in REGISTRY.values()]]

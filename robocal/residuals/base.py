@@ -59,6 +59,8 @@ class Residual(ABC):
     sigma       (dim,) standard deviation of each row, SI units
     weights     (dim,) per-row weights; 0 means "not measured" and drops that row
     measurements (n_terms, len(columns)) raw measured values (empty for pure constraint types)
+    term_scale  (n_terms,) or None: a per-term multiplier of the row scale (a per-term sigma: sigma / term_scale,
+                as a camera's per-corner pixel sigma)
     """
 
     type_name: ClassVar[str] = ""
@@ -78,6 +80,7 @@ class Residual(ABC):
         self.aux: list[Aux] = []
         self.columns: list[str] = []
         self.measurements = np.zeros((len(self.samples), 0))
+        self.term_scale: np.ndarray | None = None
 
     # ---- what subclasses define --------------------------------------------------------
     @property
@@ -127,6 +130,11 @@ class Residual(ABC):
     def aux_parameters(self) -> list[Parameter]:
         return [Parameter(f"{self.name}.{a.suffix}", "auxiliary", self.name, i, value=a.value, vary=a.vary,
                           unit=a.unit) for i, a in enumerate(self.aux)]
+
+    def aux_scales(self) -> dict[str, tuple[float, float]]:
+        """{auxiliary parameter name: (physical scale, standard error below which it is determined)} for set-up
+        quantities that have a physical scale (a camera's intrinsics); the others have none."""
+        return {}
 
     def machine_parameter_names(self) -> list[str]:
         """Unknowns of this residual that are the machine's geometry (a parallel CMM's error parameters), not a
