@@ -26,6 +26,8 @@ def add_parser(subparsers) -> None:
     r.add_argument("result", help="output folder of `robocal calibrate`")
     r.add_argument("-o", "--output", help="report file (default: RESULT/report.html)")
     r.add_argument("--no-meshes", action="store_true", help="simple shapes in the 3D scene (a much smaller file)")
+    for p in (v, r):
+        p.add_argument("-q", "--quiet", action="store_true", help="print only errors")
     v.set_defaults(handler=cmd_view)
     r.set_defaults(handler=cmd_report)
 
