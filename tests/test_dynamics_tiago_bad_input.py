@@ -18,7 +18,7 @@ def case(tmp_path):
 
 
 def rewrite(cfg, kind, edit):
-    path = cfg["data"][kind]
+    path = cfg["logs"][0][kind]
     data = np.genfromtxt(path, delimiter=",", skip_header=1)
     edit(data)
     header = "t," + ",".join(f"- {j}_{kind}" for j in JOINTS)
@@ -63,9 +63,9 @@ def test_missing_effort_column_and_overlapping_windows(case):
     err = run_and_expect(cfg, tmp_path, "gear_ratio|non-zero")
     assert err.field == "effort.gear_ratio"
     cfg["effort"]["recorded"] = cfg["effort"]["recorded"][:-1]
-    cfg["windows"]["validate"] = [8.0, 14.0]
+    cfg["logs"][0]["validate"] = [8.0, 14.0]
     err = run_and_expect(cfg, tmp_path, "overlap")
-    assert err.field == "windows.validate"
+    assert err.field == "logs[0].validate"
 
 
 def test_the_shipped_time_stamps_are_irregular():
@@ -77,7 +77,7 @@ def test_the_shipped_time_stamps_are_irregular():
 def test_a_training_window_too_short_to_choose_the_prior_weight(case):
     cfg, tmp_path = case
     cfg["signal"]["cutoff_hz"] = 2.0          # a 1 s guard between the fitted and the scored part
-    cfg["windows"]["train"] = [2.0, 4.5]
+    cfg["logs"][0]["train"] = [2.0, 4.5]
     cfg["model"]["prior_rule"] = "holdout"    # the rule that splits the training window
     err = run_and_expect(cfg, tmp_path, "prior weight|widen")
     assert err.field == "windows.train"

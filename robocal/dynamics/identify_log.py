@@ -160,34 +160,8 @@ def identify_log(model: pin.Model, parts: list[LogPart], recorded: list[str], op
     ols = fit_base(full_train.columns(names_for(joint_terms)), tau_train(delays), inflation=inflation)
     if ols.selection.rank == 0:
         raise InputError("the training window identifies no parameter", source=cfg.source, field="windows.train")
-    tests: list[TermTest] = []
-    if "delay" in cfg.candidate_terms:
-        projector, weights, noise_unit = _projector(full_train.columns(names_for(joint_terms)), ols, tau_train(delays))
-
-        unshifted = tau_train(delays)
-
-        def torque_at(k, d):
-            out = unshifted.copy()
-            if k is not None:
-                out[:, k] = np.concatenate([p.torque_column(p.train, k, d) for p in prepared])
-            return out
-
-        found = choose_delays(projector, weights, torque_at, recorded, delay_grid(1.0 / first.fs_raw, cfg.delay_max_s),
-                              noise_unit)
-        tests += found
-        delays = np.array([t.value if t.kept else 0.0 for t in found])
-    if candidates:
-        reg_base = full_train.columns(names_for(joint_terms))
-        base_fit = fit_base(reg_base, tau_train(delays), inflation=inflation)
-        projector, weights, noise_unit = _projector(reg_base, base_fit, tau_train(delays))
-        pairs = [(j, c) for j in recorded for c in candidates]
-        columns = {(j, c): full_train.X[:, full_train.names.index(f"{j}.{ADDED_COLUMN[c]}")] for j, c in pairs}
-        found = added_column_tests(projector, weights, tau_train(delays).reshape(-1), pairs, columns, noise_unit,
-                                   len(pairs))
-        tests += found
-        for t in found:
-            if t.kept:
-                joint_terms[t.joint] += (t.term,)
+    tests, delays = _choose_terms(cfg, prepared, full_train, recorded, candidates, joint_terms, names_for, tau_train,
+                                  inflation)
     names = names_for(joint_terms)
     reg_train = full_train.columns(names)
     tau_tr = tau_train(delays)
@@ -231,6 +205,61 @@ def identify_log(model: pin.Model, parts: list[LogPart], recorded: list[str], op
                           list(bounds or []), consistency, validation, training_rms, t_range, within, wrench, curves,
                           costs, {"train": reg_train, **({"check": reg_check} if checks else {})}, list(notes or []),
                           prepared[0].coulomb_width)
+
+
+def _choose_terms(cfg, prepared, full_train, recorded, candidates, joint_terms, names_for, tau_train, inflation):
+    """term_selection.py's tests, in an order that keeps one term's misfit from passing for another's: the
+    added columns with no delay, then the delays in the model with the columns found, then the columns again
+    with those delays (their final decision). Adds the kept terms to joint_terms; (tests, delays)."""
+    delays = np.zeros(len(recorded))
+    pairs = [(j, c) for j in recorded for c in candidates]
+    columns = {(j, c): full_train.X[:, full_train.names.index(f"{j}.{ADDED_COLUMN[c]}")] for j, c in pairs}
+
+    def column_tests(delays):
+        """Forward selection: the candidate with the largest statistic joins the model while it passes; the
+        others are tested again against the enlarged model (two candidates explaining one effect, e.g. Coulomb
+        and viscous asymmetry on one joint, do not both pass)."""
+        terms, result, remaining = dict(joint_terms), {}, list(pairs)
+        while remaining:
+            reg = full_train.columns(names_for(terms))
+            fit = fit_base(reg, tau_train(delays), inflation=inflation)
+            projector, weights, unit = _projector(reg, fit, tau_train(delays))
+            round_ = added_column_tests(projector, weights, tau_train(delays).reshape(-1), remaining, columns, unit,
+                                        len(pairs))
+            result.update({(t.joint, t.term): t for t in round_})
+            best = max(round_, key=lambda t: t.statistic)
+            if not best.kept:
+                break
+            terms[best.joint] += (best.term,)
+            remaining.remove((best.joint, best.term))
+        for t in result.values():           # kept: joined the model (a later round's test of it is not run)
+            t.kept = (t.joint, t.term) not in remaining
+        return [result[p] for p in pairs]
+
+    found = column_tests(delays) if pairs else []
+    tests: list[TermTest] = []
+    if "delay" in cfg.candidate_terms:
+        with_found = {j: t + tuple(f.term for f in found if f.kept and f.joint == j) for j, t in joint_terms.items()}
+        reg = full_train.columns(names_for(with_found))
+        fit = fit_base(reg, tau_train(delays), inflation=inflation)
+        projector, weights, unit = _projector(reg, fit, tau_train(delays))
+        unshifted = tau_train(delays)
+
+        def torque_at(k, d):
+            out = unshifted.copy()
+            if k is not None:
+                out[:, k] = np.concatenate([p.torque_column(p.train, k, d) for p in prepared])
+            return out
+
+        step = 1.0 / prepared[0].processed.fs_raw
+        tests += choose_delays(projector, weights, torque_at, recorded, delay_grid(step, cfg.delay_max_s), unit)
+        delays = np.array([t.value if t.kept else 0.0 for t in tests])
+        found = column_tests(delays) if pairs else []
+    tests += found
+    for t in found:
+        if t.kept:
+            joint_terms[t.joint] += (t.term,)
+    return tests, delays
 
 
 def _projector(reg: Regressor, ols: BaseFit, tau: np.ndarray) -> tuple[Projector, np.ndarray, float]:

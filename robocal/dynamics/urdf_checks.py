@@ -18,8 +18,9 @@ from robocal.dynamics.urdf_inertials import INERTIA_KEYS
 from robocal.errors import InputError
 
 
-def check_urdf_inertials(urdf_text: str, source: str) -> list[str]:
-    """Raise InputError for a non-finite inertial value; notes for links whose inertia is not realisable."""
+def check_urdf_inertials(urdf_text: str, source: str, noted: set[str] | None = None) -> list[str]:
+    """Raise InputError for a non-finite inertial value; notes for links whose inertia is not realisable
+    (only those in `noted`, the links of the moving bodies, when given)."""
     root = etree.fromstring(urdf_text.encode("utf-8"))
     notes = []
     for link in root.findall("link"):
@@ -52,11 +53,16 @@ def check_urdf_inertials(urdf_text: str, source: str) -> list[str]:
                               [i["ixz"], i["iyz"], i["izz"]]])
         params = pin.Inertia(max(mass, 0.0), np.zeros(3), about_com).toDynamicParameters()
         eig = np.linalg.eigvalsh(pseudo_inertia(params))
-        if eig[0] < -1e-9 * max(abs(eig[-1]), 1e-12):
+        if eig[0] < -1e-9 * max(abs(eig[-1]), 1e-12) and (noted is None or name in noted):
             notes.append(f"the URDF's link '{name}' is not a mass distribution (smallest pseudo-inertia eigenvalue "
                          f"{eig[0]:.3g} kg m^2: its inertia breaks the triangle inequality); the consistent fit "
                          "cannot keep that CAD value")
     return notes
+
+
+def moving_links(model: pin.Model) -> set[str]:
+    """The URDF links merged into the reduced model's moving bodies."""
+    return {f.name for f in model.frames if f.parentJoint > 0 and f.type == pin.FrameType.BODY}
 
 
 def massless_body_notes(model: pin.Model) -> list[str]:

@@ -18,7 +18,7 @@ from robocal.dynamics.log_loading import DEFAULT_PATTERNS, JointLog, load_joint_
 from robocal.dynamics.log_parts import LogPart, within
 from robocal.dynamics.plausible_bounds import body_bounds
 from robocal.dynamics.reduced_model import reduced_model, velocity_index
-from robocal.dynamics.urdf_checks import check_urdf_inertials, massless_body_notes
+from robocal.dynamics.urdf_checks import check_urdf_inertials, massless_body_notes, moving_links
 from robocal.errors import InputError
 from robocal.workflows.identify_config import IdentifyConfig, LogSpec, load_identify_config
 
@@ -30,9 +30,9 @@ def identify_from_config(path_or_dict, base_dir=None) -> IdentifyResult:
     if not Path(cfg.urdf).is_file():
         raise InputError("URDF file not found", source=str(cfg.urdf), field="robot.urdf")
     urdf_text = Path(cfg.urdf).read_text(encoding="utf-8")
-    notes = check_urdf_inertials(urdf_text, str(cfg.urdf))
+    check_urdf_inertials(urdf_text, str(cfg.urdf))            # non-finite values refused before Pinocchio reads them
     model = reduced_model(cfg.urdf, cfg.joints)
-    notes += massless_body_notes(model)
+    notes = check_urdf_inertials(urdf_text, str(cfg.urdf), moving_links(model)) + massless_body_notes(model)
     recorded = sorted(cfg.recorded, key=lambda j: velocity_index(model, j))
     rec_cols = [cfg.joints.index(j) for j in recorded]
     effort_map = effort_map_of(cfg, recorded)

@@ -133,6 +133,10 @@ def prior_rule_text(prior) -> str:
     if prior.rule == "holdout":
         return (f"chosen on the training window (fit on its first {100 * prior.split_fraction:.0f} % less the "
                 f"filter's reach, {prior.gap_s:.3g} s, scored on the rest)")
+    if prior.rule == "within_bounds_noise":
+        return (f"by the within-bounds-noise rule (the strongest weight of model.prior_grid whose fit stays within "
+                f"the noise of the weakest weight's fit under the same constraints: squared distance at most "
+                f"{prior.bound:.4g}, the chi-square 95 % quantile)")
     return (f"by the within-noise rule (the strongest weight of model.prior_grid whose fit stays within the "
             f"unconstrained fit's noise on the training window: squared distance at most {prior.bound:.4g}, the "
             "chi-square 95 % quantile)")
@@ -141,7 +145,7 @@ def prior_rule_text(prior) -> str:
 def grid_edge_note(prior) -> str:
     """Said when the chosen prior weight is the grid's smallest or largest: the best may lie beyond it. Under
     the within-noise rule the smallest means no weight met the bound."""
-    if prior.rule == "within_noise" and not prior.attained:
+    if prior.rule.startswith("within") and not prior.attained:
         return (f" NOTE: no weight of the grid meets that bound (the weakest, {prior.chosen:.3g}, lies at "
                 f"{prior.scores[0]:.4g} > {prior.bound:.4g}): the physical constraints themselves cost more than the "
                 "noise, so the weakest prior is used.")
