@@ -102,7 +102,7 @@ def identified_urdf(urdf_text: str, model: pin.Model, identified: np.ndarray, ca
         weights = {n: (masses[n] / total if total > 0 else float(n == child)) for n, _ in shares}
         added = {n: link_parameters(links[n]) + weights[n] * to_link_frame(change[j - 1], pl) for n, pl in shares
                  if weights[n] > 0}
-        if not all(is_physically_consistent(p) for p in added.values()):
+        if np.any(change[j - 1]) and not all(is_physically_consistent(p) for p in added.values()):
             body = np.asarray(identified, float).reshape(-1, 10)[j - 1]
             added = {n: weights[n] * to_link_frame(body, pl) for n, pl in shares if weights[n] > 0}
             remarks.append(f"the body of {name}: its change would leave a link unrealisable, so its {len(added)} "
