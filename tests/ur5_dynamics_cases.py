@@ -14,7 +14,7 @@ EFFORT_NOISE, POSITION_NOISE = 0.05, 1e-4          # N m, rad
 
 
 def write_ur5_log(folder, rows=6000, seed=0, spring=None, coulomb_pos_neg=None, delay=None, candidates=(),
-                  viscous_pos_neg=None, offset=OFFSET, terms=("coulomb", "viscous", "offset")):
+                  viscous_pos_neg=None, offset=OFFSET, terms=("coulomb", "viscous", "offset"), robot_seed=None):
     """The log, its config and the truth. Optional truth terms, per joint (arrays of 6): spring (N m/rad, torque
     K q), coulomb_pos_neg ((6,), (6,): Fc+ and Fc- replacing the symmetric COULOMB), delay (s: the effort at t
     is the torque at t - delay); candidates: the config's model.candidate_terms."""
@@ -24,7 +24,7 @@ def write_ur5_log(folder, rows=6000, seed=0, spring=None, coulomb_pos_neg=None, 
     rng = np.random.default_rng(seed)
     t = np.concatenate([[0.0], np.cumsum(rng.uniform(0.0077, 0.0123, rows - 1))])
     q, v, a = trajectory(t, model, seed + 1)
-    truth = truth_model(model, seed + 2)
+    truth = truth_model(model, seed + 2 if robot_seed is None else robot_seed)     # robot_seed: the same robot
     data = truth.createData()
     tau = np.array([pin.rnea(truth, data, q[k], v[k], a[k]) for k in range(rows)])
     train, validate = (2.0, 0.75 * t[-1]), (0.75 * t[-1], t[-1])
