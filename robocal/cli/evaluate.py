@@ -7,6 +7,7 @@ import json
 import sys
 from pathlib import Path
 
+from robocal.cli.identify import evaluate_dynamics
 from robocal.errors import InputError
 from robocal.workflows.evaluate import evaluate_result
 from robocal.io.output_folder import write_folder
@@ -15,7 +16,6 @@ from robocal.io.output_folder import write_folder
 def cmd_evaluate(args) -> int:
     folder = Path(args.result_dir).resolve()
     if (folder / "dynamics.yaml").is_file():           # a `robocal identify` folder: its own evaluation
-        from robocal.cli.identify import evaluate_dynamics
         return evaluate_dynamics(folder, Path(args.data))
     config = Path(args.config) if args.config else folder / "config.yaml"
     if not config.is_file():

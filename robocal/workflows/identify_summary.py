@@ -9,20 +9,17 @@ from robocal.dynamics.constraint_cost import MEASURABLE_COST
 from robocal.dynamics.identified_model import SIDE_FILE
 from robocal.dynamics.identify_log import MODELS, IdentifyResult
 from robocal.dynamics.inertial import parameter_vector
+from robocal.workflows.identify_urdf import identified_urdf_entry, torque_units, urdf_of
 
 LABELS = {"cad": "CAD (URDF)", "ols": "OLS base parameters", "consistent": "physically consistent"}
 
 
-def result_dict(res):
-    from robocal.workflows.identify_outputs import result_dict as full    # the summary's figures, written beside it
-    return full(res)
-
-
 def summary_text(res: IdentifyResult, d: dict | None = None) -> str:
-    """The summary; d: `result_dict(res)` when the caller has it already. Warnings, input notes and findings
-    come before any figure."""
-    d = d if d is not None else result_dict(res)
-    units = d["torque_units"]
+    """The summary; d: identify_outputs.result_dict(res) when the caller has it already (its URDF entry and
+    findings are reused). Warnings, input notes and findings come before any figure."""
+    if d is None:
+        d = {"findings": findings(res), "identified_urdf": identified_urdf_entry(urdf_of(res))}
+    units = torque_units(res)
     lines = [f"Dynamic identification: {res.config.source}", ""]
     if not res.consistent.converged:        # said before any figure
         lines += [f"WARNING: the consistent fit's solver stopped short of its tolerance (Clarabel status "
@@ -38,11 +35,12 @@ def summary_text(res: IdentifyResult, d: dict | None = None) -> str:
                  + ", ".join(f"{vc['rms_differentiated_minus_logged'][i]:.3g}" for i in idx)
                  + "; logged velocities lag by " + ", ".join(f"{vc['lag_of_logged_s'][i]:.3g}" for i in idx) + " s")
     lines.append("")
-    for log in d["logs"]:
-        lines.append(f"{log['name']}: training {log['train_s']} s ({log['train_samples']} samples), validation "
-                     f"{log['validate_s'] or 'none'} s ({log['validate_samples']} samples, held out).")
+    for p in res.parts:
+        lines.append(f"{p.part.name}: training {[list(w) for w in p.part.train]} s ({int(p.train.sum())} samples), "
+                     f"validation {[list(w) for w in p.part.validate] or 'none'} s ({int(p.check.sum())} samples, "
+                     "held out).")
     lines += term_lines(res, units)
-    lines += [f"OLS: {d['ols']['rank']} base parameters, condition number {d['ols']['condition_number']:.4g}.",
+    lines += [f"OLS: {res.ols.selection.rank} base parameters, condition number {res.ols.condition:.4g}.",
               f"Consistent fit: CAD prior weight {res.consistent.prior_weight:.3g}, {prior_rule_text(res.prior)}; "
               f"Clarabel {res.consistent.iterations} iterations, status {res.consistent.status}."
               + grid_edge_note(res.prior),
