@@ -159,7 +159,8 @@ def within_noise_verdict(wn: dict) -> str:
     if wn["distance_in_noise_units"] <= wn["chi2_95"]:
         return "The consistent model lies within the unconstrained fit's noise (below the 95 % quantile)."
     return ("NOTE: the consistent model lies beyond the unconstrained fit's noise (above the 95 % quantile): "
-            "physical consistency costs fit on this data; compare the held-out figures above before using it.")
+            "physical consistency and plausibility cost fit on this data (the findings say where); compare held-out "
+            "figures (a validation window, or robocal evaluate on another log) before using it.")
 
 
 def constraint_cost_lines(costs, joint_units: dict[str, str], weakest: float, shown: int = 5) -> list[str]:
