@@ -23,6 +23,7 @@ import numpy as np  # noqa: E402
 from robocal.dynamics.consistent_fit import fit_consistent  # noqa: E402
 from robocal.workflows.identify import identify_from_config  # noqa: E402
 from robocal.dynamics.inertial import parameter_vector  # noqa: E402
+from robocal.dynamics.plausible_bounds import linear_bounds  # noqa: E402
 
 CONFIG = ROOT / "examples/tiago_dynamics/identify.yaml"
 
@@ -33,7 +34,11 @@ def main() -> None:
     args = parser.parse_args()
     res = identify_from_config(args.config)
     reg_train, reg_check = res.regressors["train"], res.regressors["check"]
-    tau_train = res.processed.decimated(res.processed.effort)[res.train]
+    if "check" not in res.regressors:
+        raise SystemExit("the config has no validation window: add one (logs[].validate)")
+    tau_train = np.concatenate([p.torque(p.train, res.delays) for p in res.parts])
+    names = [res.model.names[j] for j in range(1, res.model.njoints)]
+    bounds = linear_bounds(res.bounds, len(names), {n: i for i, n in enumerate(names)}) if res.bounds else None
     cad, sigma, lam = parameter_vector(res.model), res.ols.sigma, res.consistent.prior_weight
     filtered, logged = res.curves["measured"], res.curves["logged"]
 
@@ -52,7 +57,7 @@ def main() -> None:
           f"({', '.join(res.recorded)})")
     print(f"{'refit':48s} {'against the filtered torque':>36s}   {'against the logged torque':>36s}")
     for label, relax in refits.items():
-        pred = fit_consistent(reg_train, tau_train, sigma, cad, lam, **relax).predict(reg_check)
+        pred = fit_consistent(reg_train, tau_train, sigma, cad, lam, bounds=bounds, **relax).predict(reg_check)
         f = rmse(pred, filtered) / rmse(ols_pred, filtered)
         g = rmse(pred, logged) / rmse(ols_pred, logged)
         print(f"{label:48s} " + " ".join(f"{v:6.3f}" for v in f) + "   " + " ".join(f"{v:6.3f}" for v in g))

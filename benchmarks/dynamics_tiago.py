@@ -1,6 +1,15 @@
 """Benchmark: dynamic identification of the shipped TIAGo log through its config alone.
 
-    OMP_NUM_THREADS=1 python benchmarks/dynamics_tiago.py [--repeats N] [--config YAML] [--figaroh [--figaroh-venv PATH]]
+    OMP_NUM_THREADS=1 python benchmarks/dynamics_tiago.py [--repeats N] [--config YAML] [--splits]
+                                                          [--figaroh [--figaroh-venv PATH]]
+
+--splits: the shipped config's log cut into the three splits of docs/dynamics_tiago.md (all inside FIGAROH's
+example window, 9.2-60 s of the shipped rows: 9.2-40 s trained / 40-60 s held out, 9.2-45 / 45-60, and
+29.2-60 / 9.2-29.2), each identified as configured and scored like a validation window, FIGAROH on the
+same training rows; then the shipped config itself (trained on the whole window, no validation) timed
+against FIGAROH on the same rows. Also printed per split: the held-out RMSE at the log's raw rows against
+the logged torque of the model robocal writes (URDF + side file, through `robocal evaluate`'s path) and of
+FIGAROH's prediction at the same rows (each with its own kinematics).
 
 Prints the held-out torque RMSE per recorded joint for the CAD model (the baseline, same run), the
 OLS base parameters and the physically consistent model, the free-motion external force, and the
@@ -30,9 +39,16 @@ sys.path.insert(1, str(ROOT / "benchmarks"))
 import numpy as np  # noqa: E402
 
 from figaroh_env import add_options, figaroh_python, run_driver  # noqa: E402
-import robocal.workflows.identify as identify_run  # noqa: E402
-from robocal.dynamics.identify_log import MODELS
+import copy  # noqa: E402
+import tempfile  # noqa: E402
+
+import yaml  # noqa: E402
+
+import robocal.dynamics.identify_log as identify_run  # noqa: E402
+from robocal.dynamics.identify_log import MODELS  # noqa: E402
 from robocal.workflows.identify import identify_from_config  # noqa: E402
+from robocal.workflows.identify_evaluate import evaluate_dynamics  # noqa: E402
+from robocal.workflows.identify_outputs import write_identification  # noqa: E402
 from robocal.dynamics.log_loading import load_joint_log  # noqa: E402
 
 CONFIG = ROOT / "examples/tiago_dynamics/identify.yaml"
@@ -41,6 +57,9 @@ FIGAROH_CONFIG = ROOT / "benchmarks/figaroh/tiago_identification.yaml"
 
 # the stages of identify_from_config beyond the OLS fit, timed apart to compare like with like
 EXTRA_STAGES = ("within_noise_choice", "_holdout_choice", "fit_consistent", "constraint_costs")
+#: (label, train, validate) in s of the shipped log: docs/dynamics_tiago.md, "Three splits"
+SPLITS = (("9.2-40 / 40-60", [9.2, 40.0], [40.0, 60.0]), ("9.2-45 / 45-60", [9.2, 45.0], [45.0, 60.0]),
+          ("29.2-60 / 9.2-29.2", [29.2, 60.0], [9.2, 29.2]))
 
 
 def time_extra_stages(spent: dict) -> None:
@@ -58,11 +77,14 @@ def time_extra_stages(spent: dict) -> None:
 def figaroh_request(res) -> dict:
     """The driver's request: robocal's shipped files, the rows of its training window, its constants."""
     cfg = res.config
-    t = load_joint_log({k: str(p) for k, p in cfg.files.items()}, cfg.joints, cfg.time_column, cfg.patterns).t
-    rows = [int(np.searchsorted(t, cfg.train[0])), int(np.searchsorted(t, cfg.train[1]))]
+    log = cfg.logs[0]
+    t = load_joint_log({k: str(p) for k, p in log.files.items()}, cfg.joints, log.time_column, log.patterns).t
+    train = log.train[0]
+    rows = [int(np.searchsorted(t, train[0])), int(np.searchsorted(t, train[1]))]
+    validate = list(log.validate[0]) if log.validate else [float(t[0]), float(t[0])]
     return {"config": str(FIGAROH_CONFIG), "urdf": str(cfg.urdf), "train_rows": rows,
-            "validate": list(cfg.validate), "torque_scale": {j: float(cfg.torque_scale[j]) for j in cfg.recorded},
-            **{kind: str(path) for kind, path in cfg.files.items()}}
+            "validate": validate, "torque_scale": {j: float(cfg.torque_scale[j]) for j in cfg.recorded},
+            **{kind: str(path) for kind, path in log.files.items()}}
 
 
 def heldout_tables(res, figaroh: dict | None, units: list[str]) -> list[str]:
@@ -76,7 +98,7 @@ def heldout_tables(res, figaroh: dict | None, units: list[str]) -> list[str]:
     out, verdicts = [], []
     for title, target in (("low-pass filtered torque (robocal's validation target)", res.curves["measured"]),
                           ("logged torque, unfiltered", res.curves["logged"])):
-        out += [f"\nheld-out torque RMSE on {len(times)} samples of {list(res.config.validate)} s, against the {title}",
+        out += [f"\nheld-out torque RMSE on {len(times)} samples of {res.config.logs[0].validate} s, against the {title}",
                 "| model | " + " | ".join(f"{j} ({u})" for j, u in zip(res.recorded, units)) + " |",
                 "|---" * (len(res.recorded) + 1) + "|"]
         rmse = {name: np.sqrt(np.mean((pred - target) ** 2, axis=0)) for name, pred in predictions.items()}
@@ -90,20 +112,66 @@ def heldout_tables(res, figaroh: dict | None, units: list[str]) -> list[str]:
         verdicts.append(f"against the {title.split(' (')[0]}: " + "; ".join(
             f"{k} on every joint: " + ("yes" if ok.all() else "NO (" + ", ".join(
                 j for j, good in zip(res.recorded, ok) if not good) + ")") for k, ok in checks.items()))
-    return out + ["\nissue 22, the consistent model " + verdicts[0], "issue 22, the consistent model " + verdicts[1]]
+    return out + ["\nthe consistent model " + verdicts[0], "the consistent model " + verdicts[1]]
 
 
 def run_figaroh(python, res, repeats: int) -> list[dict]:
     return [run_driver(python, "identification_driver.py", figaroh_request(res))[0] for _ in range(repeats)]
 
 
+def raw_rows_table(res, figaroh: dict | None) -> list[str]:
+    """Held-out RMSE at the log's raw rows against the logged torque: the written model (robocal evaluate's
+    path) and FIGAROH's prediction at the same rows."""
+    log = res.config.logs[0]
+    with tempfile.TemporaryDirectory() as tmp:
+        write_identification(res, Path(tmp) / "out")
+        spec = Path(tmp) / "log.yaml"
+        spec.write_text(yaml.safe_dump({"name": "heldout", "window": list(log.validate[0]),
+                                        **{k: str(p) for k, p in log.files.items()}}))
+        ev = evaluate_dynamics(Path(tmp) / "out", spec)
+    lines = [f"\nheld-out RMSE at the log's raw rows ({len(ev.t)} rows of {list(log.validate[0])} s, the filter's "
+             "trimmed edges left out), against the logged torque",
+             "| model | " + " | ".join(f"{j} ({u})" for j, u in zip(ev.recorded, ev.units)) + " |",
+             "|---" * (len(ev.recorded) + 1) + "|",
+             "| robocal, written URDF + side file | " + " | ".join(f"{v:.3f}" for v in ev.rmse_logged) + " |"]
+    if figaroh:
+        pred = np.column_stack([np.interp(ev.t, figaroh["t"], figaroh["predicted"][j]) for j in ev.recorded])
+        rmse = np.sqrt(np.mean((pred - ev.logged) ** 2, axis=0))
+        lines.append("| FIGAROH 1.0.2 (OLS) | " + " | ".join(f"{v:.3f}" for v in rmse) + " |")
+        better = ev.rmse_logged < rmse
+        lines.append("robocal's written model below FIGAROH on every joint: " + (
+            "yes" if better.all() else "NO (" + ", ".join(j for j, b in zip(ev.recorded, better) if not b) + ")"))
+    return lines
+
+
+def run_splits(args, python) -> None:
+    base = yaml.safe_load(Path(args.config).read_text())
+    for label, train, validate in SPLITS:
+        cfg = copy.deepcopy(base)
+        cfg["logs"][0]["train"], cfg["logs"][0]["validate"] = train, validate
+        res = identify_from_config(cfg, Path(args.config).parent)
+        units = ["N" if res.model.joints[res.model.getJointId(j)].shortname().startswith("JointModelP") else "N m"
+                 for j in res.recorded]
+        print(f"\n## split {label} s: {res.n_train} training, {res.n_check} held-out samples; prior weight "
+              f"{res.prior.chosen:g}; terms kept: "
+              + (", ".join(f"{t.joint}.{t.term}" for t in res.term_tests if t.kept) or "none")
+              + "; masses (kg): " + ", ".join(f"{m:.3g}" for m in res.consistent.inertial[0::10]))
+        f = run_figaroh(python, res, 1)[0] if python else None
+        print("\n".join(heldout_tables(res, f, units)))
+        print("\n".join(raw_rows_table(res, f)))
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=1)
     ap.add_argument("--config", default=str(CONFIG), help="another identification config (default: the shipped one)")
+    ap.add_argument("--splits", action="store_true", help="also the three splits of docs/dynamics_tiago.md")
     add_options(ap)
     args = ap.parse_args(argv)
     python = figaroh_python(args)
+    if args.splits:
+        run_splits(args, python)
+        print("\n## the shipped config")
     times, cpu, extra, res = [], [], [], None
     spent = {}
     time_extra_stages(spent)
@@ -116,32 +184,16 @@ def main(argv=None):
         extra.append(sum(spent.values()))
     units = ["N" if res.model.joints[res.model.getJointId(j)].shortname().startswith("JointModelP") else "N m"
              for j in res.recorded]
-    print(f"config: {args.config}")
-    print(f"train {list(res.config.train)} s ({res.train.sum()} samples), validate {list(res.config.validate)} s "
-          f"({res.check.sum()} samples); cut-off {res.processed.cutoff_hz:.3g} Hz, "
+    print(f"\nconfig: {args.config}")
+    print(f"{res.n_train} training samples, {res.n_check} held out; cut-off {res.processed.cutoff_hz:.3g} Hz, "
           f"decimation {res.processed.decimation}")
     print(f"OLS: {res.ols.selection.rank} base parameters, condition {res.ols.condition:.4g}; consistent: prior weight "
-          f"{res.consistent.prior_weight:g} (rule {res.prior.rule}; grid scores "
-          + ", ".join(f"{s:.3f}" for s in res.prior.scores)
-          + f"), Clarabel {res.consistent.iterations} iterations, status {res.consistent.status}")
-    print("\nheld-out torque RMSE (% of range)")
-    print("| model | " + " | ".join(f"{j} ({u})" for j, u in zip(res.recorded, units)) + " |")
-    print("|---" * (len(res.recorded) + 1) + "|")
-    for m in MODELS:
-        v = res.validation[m]
-        cells = [f"{r:.3f} ({p:.1f} %)" for r, p in zip(v["rmse"], v["percent_of_range"])]
-        print(f"| {m} | " + " | ".join(cells) + " |")
-    ratio = np.array(res.validation["consistent"]["rmse"]) / np.array(res.validation["ols"]["rmse"])
-    print("| consistent / ols | " + " | ".join(f"{r:.3f}" for r in ratio) + " |")
-    print(f"\nexternal force at {res.wrench_rms['frame']}, validation window, RMS per world axis (N)")
-    print("| model | fx | fy | fz |\n|---|---|---|---|")
-    for m in MODELS:
-        print(f"| {m} | " + " | ".join(f"{f:.3f}" for f in res.wrench_rms[m]) + " |")
-    wn = res.within_noise
-    print(f"\nconsistent vs OLS on the training window: squared distance {wn['distance_in_noise_units']:.1f} "
-          f"in noise units (variance inflation of the filtered noise {wn['noise_inflation']:.3g}; chi-square 95 %: "
-          f"{wn['chi2_95']:.1f}); "
-          "RMS ratio " + ", ".join(f"{r:.3f}" for r in wn["rms_ratio"]))
+          f"{res.consistent.prior_weight:g} (rule {res.prior.rule}), Clarabel {res.consistent.iterations} iterations, "
+          f"status {res.consistent.status}; masses (kg) " + ", ".join(f"{m:.3g}" for m in res.consistent.inertial[0::10])
+          + "; training RMS consistent " + ", ".join(f"{r:.3f}" for r in res.training_rms["consistent"])
+          + ", OLS " + ", ".join(f"{r:.3f}" for r in res.training_rms["ols"]))
+    if res.validation:
+        print("\n".join(heldout_tables(res, None, units)))
     print(f"\nidentification wall time (load, filter, OLS, prior-weight grid, consistent fit, constraint costs, "
           "validation): "
           f"best {min(times):.2f} s, median {np.median(times):.2f} s over {len(times)} run(s); "
@@ -153,9 +205,9 @@ def main(argv=None):
     figaroh = run_figaroh(python, res, args.repeats)
     f = figaroh[0]
     print(f"\nFIGAROH {f['base_parameters']} base parameters from {f['training_samples']} samples "
-          f"({f['fit_rows']} rows after decimation), condition {f['condition']:.4g}; torso offset "
-          f"9.81 x {f['torso_carried_mass_kg']:.4g} kg (robocal's config: {res.config.torque_offset})")
-    print("\n".join(heldout_tables(res, f, units)))
+          f"({f['fit_rows']} rows after decimation), condition {f['condition']:.4g}")
+    if res.validation:
+        print("\n".join(heldout_tables(res, f, units)))
     fig_times = [a["identification_s"] for a in figaroh]
     print(f"\nidentification wall time, median of {len(times)} run(s): robocal, whole identify_from_config "
           f"{np.median(times):.2f} s, without the prior-weight grid, consistent fit and constraint costs "

@@ -23,7 +23,7 @@ OPTIONAL = ("numba", "meshcat", "matplotlib", "dask", "distributed", "pyarrow", 
             "robocal.viz.meshcat_check", "robocal.viz.report", "robocal.viz.plots", "robocal.viz.fleet_plots",
             "robocal.workflows.fleet",
             # the dynamics stack (scipy.signal, scipy.stats) only for `robocal identify`: CLI start-up
-            "robocal.workflows.identify_outputs", "robocal.workflows.identify")
+            "robocal.workflows.identify_outputs", "robocal.workflows.identify", "robocal.workflows.identify_evaluate")
 
 
 def modules() -> dict[str, Path]:

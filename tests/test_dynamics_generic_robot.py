@@ -7,7 +7,7 @@ import numpy as np
 from scipy.stats import chi2
 
 from robocal.dynamics.identification import base_values_of
-from robocal.workflows.identify_outputs import body_mass_lines
+from robocal.workflows.identify_summary import body_mass_lines, findings
 from robocal.workflows.identify import identify_from_config
 from robocal.dynamics.inertial import parameter_vector
 from ur5_dynamics_cases import write_ur5_log
@@ -26,11 +26,12 @@ def test_ur5_log_through_a_config(tmp_path):
     assert res.within_noise["residual_increase_independent_rows"] >= -1e-6
     cad, ols = (np.array(res.validation[m]["rmse"]) for m in ("cad", "ols"))
     assert np.all(ols < cad)
-    # a physical log: the within-noise rule finds a prior weight whose fit lies within the noise, and the
-    # masses stay near the CAD ones (no NOTE)
-    assert res.prior.rule == "within_noise" and res.prior.attained
+    # a physical log: the default rule finds a prior weight within the noise of the constrained fit, the fit
+    # lies within the unconstrained fit's noise too, and the masses stay near the CAD ones (no NOTE, no finding)
+    assert res.prior.rule == "within_bounds_noise" and res.prior.attained
     assert res.within_noise["distance_in_noise_units"] <= res.within_noise["chi2_95"]
     assert not any(line.startswith("NOTE") for line in body_mass_lines(res))
+    assert findings(res) == []
 
 
 def test_the_command_prints_the_summary_it_wrote(tmp_path, capsys):

@@ -40,3 +40,17 @@ def test_no_weight_within_the_bound_takes_the_weakest():
     reg, tau, cad, rss, unit = case()
     choice = within_noise_choice(reg, tau, np.array([NOISE]), cad, GRID, rss, unit, bound=-1.0)
     assert not choice.attained and choice.chosen == min(GRID)
+
+
+def test_the_bounds_rule_measures_from_the_weakest_constrained_fit():
+    """within_bounds_noise (rss_ols None): the distance is measured from the weakest weight's fit under the
+    same constraints, so it starts at zero, and the chosen weight is the strongest within the bound."""
+    reg, tau, cad, rss, unit = case()
+    bound = chi2.ppf(0.95, reg.X.shape[1])
+    choice = within_noise_choice(reg, tau, np.array([NOISE]), cad, GRID, None, unit, bound)
+    d = np.array(choice.scores)
+    assert choice.rule == "within_bounds_noise" and d[0] == 0.0
+    k = choice.grid.index(choice.chosen)
+    assert d[k] <= bound and (k == len(d) - 1 or d[k + 1] > bound)
+    from_ols = within_noise_choice(reg, tau, np.array([NOISE]), cad, GRID, rss, unit, bound)
+    assert choice.chosen >= from_ols.chosen           # never a weaker prior than the rule measured from OLS

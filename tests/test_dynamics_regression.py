@@ -4,7 +4,7 @@ when the chosen prior weight sits at the end of the grid."""
 import numpy as np
 
 from robocal.dynamics.prior_weight import PriorWeightChoice
-from robocal.workflows.identify_outputs import grid_edge_note, within_noise_verdict
+from robocal.workflows.identify_summary import grid_edge_note, within_noise_verdict
 from robocal.dynamics.regression import Regressor, fit_base, row_weights
 
 

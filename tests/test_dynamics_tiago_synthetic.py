@@ -13,6 +13,7 @@ from tiago_dynamics_cases import synthetic_log
 def test_whole_path_recovers_base_parameters_within_noise(tmp_path):
     cfg, truth, extra = synthetic_log(tmp_path, rows=4000, train=(2.0, 30.0), validate=(30.0, 39.0))
     cfg["model"]["prior_grid"] = [1.0]      # the consistent fit is not under test here
+    cfg["model"]["candidate_terms"] = []    # nor the term search (tests/test_dynamics_terms.py)
     res = identify_from_config(cfg, tmp_path)
     sel = res.ols.selection
     true_full = np.r_[parameter_vector(truth), extra.reshape(-1)]

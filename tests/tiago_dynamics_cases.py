@@ -31,6 +31,17 @@ def base_config() -> dict:
     return yaml.safe_load(CONFIG.read_text())
 
 
+def split_config(train, validate) -> dict:
+    """The shipped config with its log's windows replaced (validate None: training only)."""
+    cfg = copy.deepcopy(base_config())
+    cfg["logs"][0]["train"] = list(train)
+    if validate is None:
+        cfg["logs"][0].pop("validate", None)
+    else:
+        cfg["logs"][0]["validate"] = list(validate)
+    return cfg
+
+
 def urdf_path() -> Path:
     return (CONFIG.parent / base_config()["robot"]["urdf"]).resolve()
 
@@ -80,8 +91,7 @@ def synthetic_log(folder: Path, rows: int, train: tuple[float, float], validate:
     """Write tiago_{position,velocity,effort}.csv into `folder` (the shipped log's first `rows` time
     stamps) and return (config dict with these windows, truth model, true extra terms (5, 4)).
     The truth's Coulomb tanh width follows the config's rule on the exact velocities."""
-    cfg = copy.deepcopy(base_config())
-    cfg["windows"].update(train=list(train), validate=list(validate))
+    cfg = split_config(train, validate)
     model = reduced_model(urdf_path(), JOINTS)
     t = shipped("position")[:rows, 0]
     q, v, a = trajectory(t, model, seed)
@@ -104,8 +114,11 @@ def synthetic_log(folder: Path, rows: int, train: tuple[float, float], validate:
         effort[:, :5] += rng.normal(size=(len(t), 5)) * log_noise("effort")[:5]
     write_log(folder, t, {"position": q, "velocity": velocity, "effort": effort})
     for k in KINDS:
-        cfg["data"][k] = str(folder / f"tiago_{k}.csv")
+        cfg["logs"][0][k] = str(folder / f"tiago_{k}.csv")
     cfg["robot"]["urdf"] = str(urdf_path())
+    # the logged velocities above are crude differences, half a step late: not lagging enough for the auto
+    # rule to leave them (filtering.AUTO_LAG_STEPS), biased enough to tilt friction and inertia
+    cfg["signal"]["velocity_source"] = "differentiated"
     cfg.pop("output", None)
     return cfg, truth, TRUE_EXTRA
 

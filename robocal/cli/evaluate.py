@@ -1,15 +1,20 @@
-"""`robocal evaluate RESULT_DIR DATA.csv`: score a calibrated model on another session (docs/validation.md)."""
+"""`robocal evaluate RESULT_DIR DATA.csv`: score a calibrated model on another session (docs/validation.md);
+`robocal evaluate IDENTIFY_DIR LOG.yaml`: predict a new log's torques with an identified dynamic model
+(robocal.cli.identify.evaluate_dynamics; docs/dynamics_tiago.md)."""
 from __future__ import annotations
 
 import sys
 from pathlib import Path
 
+from robocal.cli.identify import evaluate_dynamics
 from robocal.errors import InputError
 from robocal.workflows.evaluate import evaluate_result, write_evaluation
 
 
 def cmd_evaluate(args) -> int:
     folder = Path(args.result_dir).resolve()
+    if (folder / "dynamics.yaml").is_file():           # a `robocal identify` folder: its own evaluation
+        return evaluate_dynamics(folder, Path(args.data))
     config = Path(args.config) if args.config else folder / "config.yaml"
     if not config.is_file():
         raise InputError("no config.yaml in the result folder: pass --config CALIB.yaml (the config it was "
@@ -43,9 +48,11 @@ def cmd_evaluate(args) -> int:
 
 
 def add_parser(subparsers) -> None:
-    e = subparsers.add_parser("evaluate", help="score a calibrated model (output folder) on another session")
-    e.add_argument("result_dir", help="output folder of robocal calibrate / select")
-    e.add_argument("data", help="CSV with the config's columns (another session)")
+    e = subparsers.add_parser("evaluate", help="score a calibrated model (output folder) on another session, or "
+                                               "predict a new log's torques with an identified dynamic model")
+    e.add_argument("result_dir", help="output folder of robocal calibrate / select / identify")
+    e.add_argument("data", help="CSV with the config's columns (another session); for an identify folder, a "
+                                "LOG.yaml describing the new log")
     e.add_argument("--config", help="the calibration YAML (default: RESULT_DIR/config.yaml)")
     e.add_argument("--refit", action="append", default=[], metavar="PATTERN",
                    help="parameters re-registered per session, refitted on this data (e.g. 'base.*'); repeatable")

@@ -23,6 +23,21 @@ def cmd_identify(args) -> int:
     return 0
 
 
+def evaluate_dynamics(folder, log_yaml) -> int:
+    """`robocal evaluate IDENTIFY_DIR LOG.yaml` for an identify output folder (robocal.cli.evaluate hands it
+    over): per-joint RMSE of the identified model's prediction at the log's raw rows."""
+    from robocal.workflows.identify_evaluate import evaluate_dynamics as run, write_evaluation
+    ev = run(folder, log_yaml)
+    print(f"Identified model of {folder} on {ev.name}: {len(ev.t)} raw rows scored ({ev.rows_total} in the window; "
+          "the filter's trimmed edges left out)")
+    print(f"  {'joint':<20}{'RMSE vs logged':>18}{'RMSE vs filtered':>20}")
+    for j, u, a, b in zip(ev.recorded, ev.units, ev.rmse_logged, ev.rmse_filtered):
+        print(f"  {j:<20}{a:>14.3f} {u:<3}{b:>16.3f} {u:<3}")
+    files = write_evaluation(folder, ev)
+    print(f"\nWrote {', '.join(str(f) for f in files.values())}")
+    return 0
+
+
 def add_parser(subparsers) -> None:
     p = subparsers.add_parser("identify", help="identify inertial and friction parameters from a joint log "
                                                "(positions, velocities, efforts; docs/dynamics_tiago.md)")

@@ -12,7 +12,10 @@ Steps, each reported in `ProcessedLog.choices` so that a result says how its dat
    regressor and the torques), the same filter on positions, velocities and efforts (parallel
    filtering keeps them consistent).
 4. accelerations by central differences of the filtered velocities (logged or differentiated
-   positions, `velocity_source`); the two velocity sources are compared in `velocity_check`.
+   positions, `velocity_source`); the two velocity sources are compared in `velocity_check`. With
+   `auto` the differentiated positions are used when the logged velocities lag them by more than
+   AUTO_LAG_STEPS grid steps on some joint (a logger's own filter: its lag would tilt friction and inertia
+   alike), else the logged ones.
 5. the filter's edge transients trimmed (`edge_periods` / cut-off seconds at both ends), then
    decimation by an integer factor keeping the new Nyquist frequency >= `nyquist_ratio` x cut-off.
 See docs/dynamics_tiago.md.
@@ -27,7 +30,9 @@ from scipy.signal import butter, sosfiltfilt, welch
 
 from robocal.errors import InputError
 
-VELOCITY_SOURCES = ("logged", "differentiated")
+VELOCITY_SOURCES = ("logged", "differentiated", "auto")
+#: velocity_source auto: logged velocities lagging by more than this many grid steps are not used
+AUTO_LAG_STEPS = 1.5
 #: largest delay (s) looked for between logged and differentiated velocities
 MAX_LAG_S = 0.5
 
@@ -37,7 +42,8 @@ class SignalOptions:
     """cutoff_hz: None = from the spectrum (rule in the module docstring); power_fraction,
     cutoff_margin: that rule's constants; order: Butterworth order (doubled by filtfilt);
     decimate: integer factor, None = largest keeping Nyquist >= nyquist_ratio x cut-off;
-    velocity_source: 'logged' (filtered logged velocities) or 'differentiated' (of filtered positions);
+    velocity_source: 'logged' (filtered logged velocities), 'differentiated' (of filtered positions) or
+    'auto' (step 4 of the module docstring);
     edge_periods: cut-off periods trimmed at each end of the log."""
 
     cutoff_hz: float | None = None
@@ -83,6 +89,7 @@ class ProcessedLog:
     choices: list[str] = field(default_factory=list)
     velocity_check: dict = field(default_factory=dict)
     inner_trim: int = 0
+    velocity_source: str = "logged"
 
     def decimated(self, x: np.ndarray) -> np.ndarray:
         """The samples the identification uses, of an array over `t` (T, ...): `inner_trim` more samples
@@ -136,8 +143,8 @@ def process_log(t: np.ndarray, q: np.ndarray, v: np.ndarray, effort: np.ndarray,
                 options: SignalOptions | None = None, spectrum_window: tuple[float, float] | None = None
                 ) -> ProcessedLog:
     """Resample, filter, differentiate, trim and decimate a log (t (T,) s; q, v, effort (T, n)).
-    spectrum_window: the time window whose spectrum chooses the cut-off (the training window: a choice
-    made on the data the fit sees; default the whole log)."""
+    spectrum_window: the time window, or list of windows, whose spectrum chooses the cut-off (the training
+    windows: a choice made on the data the fit sees; default the whole log)."""
     opt = options or SignalOptions()
     grid, dt = uniform_grid(t)
     fs = 1.0 / dt
@@ -145,10 +152,13 @@ def process_log(t: np.ndarray, q: np.ndarray, v: np.ndarray, effort: np.ndarray,
     vg = CubicSpline(t, v, axis=0)(grid)
     eg = np.column_stack([np.interp(grid, t, effort[:, j]) for j in range(effort.shape[1])])
     if opt.cutoff_hz is None:
-        inside = np.ones(len(grid), bool) if spectrum_window is None else (
-            (grid >= spectrum_window[0]) & (grid < spectrum_window[1]))
+        windows = None if spectrum_window is None else (
+            [spectrum_window] if np.isscalar(spectrum_window[0]) else list(spectrum_window))
+        inside = np.ones(len(grid), bool) if windows is None else np.any(
+            [(grid >= w[0]) & (grid < w[1]) for w in windows], axis=0)
         fc, per_joint = spectral_cutoff(vg[inside], fs, opt.power_fraction, opt.cutoff_margin)
-        where = "the log" if spectrum_window is None else f"the window {list(spectrum_window)} s"
+        where = "the log" if windows is None else (f"the window {list(windows[0])} s" if len(windows) == 1 else
+                                                   "the windows " + ", ".join(str(list(w)) for w in windows) + " s")
         rule = (f"cut-off {fc:.3g} Hz = {opt.cutoff_margin:g} x the largest frequency holding "
                 f"{100 * opt.power_fraction:g} % of a joint's logged-velocity power over {where} (per joint: "
                 + ", ".join(f"{f:.3g}" for f in per_joint) + " Hz; Welch spectrum)")
@@ -159,20 +169,28 @@ def process_log(t: np.ndarray, q: np.ndarray, v: np.ndarray, effort: np.ndarray,
         raise InputError(f"cut-off {fc} Hz must lie in (0, {0.5 * fs:g}) Hz", source="config", field="signal.cutoff_hz")
     qf, vf, ef = (lowpass(x, fs, fc, opt.order) for x in (qg, vg, eg))
     v_num = np.gradient(qf, dt, axis=0)
-    v_use = vf if opt.velocity_source == "logged" else v_num
-    a = np.gradient(v_use, dt, axis=0)
     trim = int(np.ceil(opt.edge_periods / fc / dt))
     if len(grid) <= 4 * trim + 3:
         raise InputError(f"log of {t[-1] - t[0]:.3g} s is too short for a {fc:.3g} Hz filter", field="t")
     keep = slice(trim, len(grid) - trim)
     check = _velocity_check(v_num[keep], vf[keep], vg[keep], dt)
+    source = opt.velocity_source
+    if source == "auto":
+        lag = max(abs(x) for x in check["lag_of_logged_s"])
+        source = "differentiated" if lag > AUTO_LAG_STEPS * dt else "logged"
+        why = (f" (auto: the logged velocities lag the differentiated positions by up to {lag:.3g} s, "
+               f"{'more' if source == 'differentiated' else 'not more'} than {AUTO_LAG_STEPS:g} grid steps)")
+    else:
+        why = ""
+    v_use = vf if source == "logged" else v_num
+    a = np.gradient(v_use, dt, axis=0)
     k = int(opt.decimate) if opt.decimate is not None else max(1, int(np.floor(fs / (2 * opt.nyquist_ratio * fc))))
     choices = [
         f"resampled {len(t)} samples (steps {np.diff(t).min() * 1e3:.3g} to {np.diff(t).max() * 1e3:.3g} ms) "
         f"onto a uniform {dt * 1e3:.4g} ms grid: cubic spline for positions and velocities, linear for efforts",
         rule,
         f"zero-phase Butterworth low-pass, order {opt.order} (x2 by sosfiltfilt), on positions, velocities and efforts",
-        f"velocities: {opt.velocity_source}; accelerations: central differences of those velocities",
+        f"velocities: {source}{why}; accelerations: central differences of those velocities",
         f"{trim} samples ({trim * dt:.3g} s, {opt.edge_periods:g} cut-off periods) trimmed at each end",
         "parallel filtering: the regressor columns, computed at every grid sample, get the same low-pass "
         "as the torques before decimation (a Coulomb step is then smoothed alike on both sides); that second "
@@ -181,7 +199,7 @@ def process_log(t: np.ndarray, q: np.ndarray, v: np.ndarray, effort: np.ndarray,
         if opt.decimate is None else f"decimated by {k} (configured) to {fs / k:.4g} Hz",
     ]
     return ProcessedLog(grid[keep], qf[keep], v_use[keep], a[keep], ef[keep], fs, fc, k, opt.order, choices, check,
-                        trim)
+                        trim, source)
 
 
 def _velocity_check(v_num: np.ndarray, v_filtered: np.ndarray, v_raw: np.ndarray, dt: float) -> dict:

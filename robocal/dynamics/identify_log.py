@@ -1,11 +1,12 @@
-"""Dynamic identification of a joint log: filter, fit (unconstrained and physically consistent), validate on
-a held-out window, and estimate the external force in free motion.
+"""Dynamic identification of one or more joint logs: filter, choose the optional terms, fit (unconstrained,
+and physically consistent and plausible), validate on held-out windows, estimate the free-motion force.
 
-`identify_log(model, log, recorded, tau, options)` returns an `IdentifyResult`. Models compared side by
-side: 'cad' (the URDF's inertias, no friction), 'ols' (base parameters by weighted least squares),
-'consistent' (every body realisable, the CAD values as a prior; consistent_fit.py). The command
-`robocal identify` (robocal.workflows.identify) reads the config and the log and writes the result.
-See docs/dynamics_tiago.md.
+`identify_log(model, parts, recorded, options, bounds)` returns an `IdentifyResult`. Models compared side
+by side: 'cad' (the URDF's inertias, no friction), 'ols' (base parameters by weighted least squares),
+'consistent' (every body realisable and inside its plausibility bounds, the CAD values as a prior;
+consistent_fit.py, plausible_bounds.py). The optional terms (spring, asymmetric friction, delay) are kept
+or not by term_selection.py's rule on the training rows only. The command `robocal identify`
+(robocal.workflows.identify) reads the config and the logs and writes the result. See docs/dynamics_tiago.md.
 """
 from __future__ import annotations
 
@@ -17,16 +18,18 @@ from scipy.stats import chi2
 
 from robocal.dynamics.consistent_fit import ConsistentFit, fit_consistent
 from robocal.dynamics.constraint_cost import ConstraintCost, constraint_costs
-from robocal.dynamics.external_force import ExternalForceEstimator
-from robocal.dynamics.filtering import ProcessedLog, SignalOptions, parallel_filter, process_log
+from robocal.dynamics.filtering import SignalOptions
 from robocal.dynamics.identification import base_values_of
 from robocal.dynamics.inertial import is_physically_consistent, parameter_vector, pseudo_inertia, with_parameters
-from robocal.dynamics.log_loading import JointLog
+from robocal.dynamics.log_parts import LogPart, PreparedPart, prepare_parts, stack
+from robocal.dynamics.plausible_bounds import MARGIN_M, MASS_RATIO, BodyBound, LinearBounds, linear_bounds
 from robocal.dynamics.prior_weight import DEFAULT_GRID, PriorWeightChoice, holdout_choice, within_noise_choice
-from robocal.dynamics.reduced_model import model_columns, velocity_index
-from robocal.dynamics.regression import EXTRA_TERMS, BaseFit, Regressor, build_regressor, fit_base
+from robocal.dynamics.reduced_model import velocity_index
+from robocal.dynamics.regression import EXTRA_TERMS, BaseFit, Regressor, fit_base, row_weights, term_columns
 from robocal.dynamics.serial_correlation import filtered_noise_inflation
-from robocal.dynamics.wrench import WrenchMapper
+from robocal.dynamics.term_selection import (ADDED_COLUMN, Projector, TermTest, added_column_tests, choose_delays,
+                                             delay_grid)
+from robocal.dynamics.validation import validate, wrench_rms
 from robocal.errors import InputError
 
 MODELS = ("cad", "ols", "consistent")
@@ -34,43 +37,52 @@ MODELS = ("cad", "ols", "consistent")
 
 @dataclass(kw_only=True)
 class IdentifyOptions:
-    """How to identify: the signal processing, the training and validation windows (s, log time), the
-    extra model terms and the prior rule (docs/dynamics_tiago.md); source names them in error messages."""
+    """How to identify: the signal processing, the model terms (always in: terms; tried: candidate_terms,
+    term_selection.py), the prior rule (prior_weight.py), the plausibility bounds (plausible: on or off;
+    mass_ratio, margin_m, ellipsoids: plausible_bounds.py) and where the free-motion force is estimated;
+    source names them in error messages. The logs and their windows are LogParts."""
 
     signal: SignalOptions = field(default_factory=SignalOptions)
-    train: tuple[float, float]
-    validate: tuple[float, float]
     min_motion: float = 0.01
     terms: tuple[str, ...] = EXTRA_TERMS
+    candidate_terms: tuple[str, ...] = ()
+    delay_max_s: float = 0.2
     coulomb_width: float = 0.05
-    prior_rule: str = "within_noise"
+    prior_rule: str = "within_bounds_noise"
     prior_grid: tuple[float, ...] = DEFAULT_GRID
     prior_split: float = 0.75
+    plausible: bool = True
+    mass_ratio: tuple[float, float] = MASS_RATIO
+    margin_m: float = MARGIN_M
+    ellipsoids: dict = field(default_factory=dict)
     wrench_frame: str | None = None
     source: str = "identification"
 
 
 @dataclass
 class IdentifyResult:
-    """config: the options (a workflow passes its whole config, which extends them); model: the reduced CAD model; recorded: recorded joint names (model order);
-    processed: the filtered log (full rate); train, check: masks over its decimated samples
-    (processed.decimated(processed.t)); ols, consistent,
-    prior: the fits; consistency: {body: (smallest pseudo-inertia eigenvalue, realisable)} of the
-    consistent model; validation: {model: {'rmse': [...], 'percent_of_range': [...],
-    'rmse_against_logged': [...]}} on the validation window (against the filtered torque, and against the
-    logged torque itself); training_rms: {model: [...]}; torque_range: per joint on the validation
-    window; within_noise: comparison of the consistent and unconstrained fits; wrench_rms:
-    {model: [fx, fy, fz] N}; curves: validation time, measured and predicted torques for plots."""
+    """config: the options (a workflow passes its whole config); model: the reduced CAD model; recorded:
+    recorded joint names (model order); parts: the prepared logs (log_parts.py; parts[0].processed is
+    `processed`); joint_terms: {joint: terms in the model}; delays (nr,) s; term_tests: every candidate's
+    test; ols, consistent, prior: the fits; consistent_std: standard errors of [inertial, extra];
+    bounds: the plausibility bounds (empty when off); consistency: {body: (smallest pseudo-inertia
+    eigenvalue, realisable)}; validation: {model: {'rmse', 'percent_of_range', 'rmse_against_logged'}} on
+    the validation windows (empty without one); training_rms; torque_range; within_noise;
+    wrench_rms; curves: validation times, measured and predicted torques; constraint_costs; notes: input
+    notes said before any figure; coulomb_width (nr,): the tanh widths used."""
 
     config: IdentifyOptions
     model: pin.Model
     recorded: list[str]
-    processed: ProcessedLog
-    train: np.ndarray
-    check: np.ndarray
+    parts: list[PreparedPart]
+    joint_terms: dict[str, tuple[str, ...]]
+    delays: np.ndarray
+    term_tests: list[TermTest]
     ols: BaseFit
     consistent: ConsistentFit
+    consistent_std: np.ndarray
     prior: PriorWeightChoice
+    bounds: list[BodyBound]
     consistency: dict
     validation: dict
     training_rms: dict
@@ -80,113 +92,216 @@ class IdentifyResult:
     curves: dict = field(repr=False, default_factory=dict)
     constraint_costs: list[ConstraintCost] = field(default_factory=list)
     regressors: dict[str, Regressor] = field(repr=False, default_factory=dict)
+    notes: list[str] = field(default_factory=list)
+    coulomb_width: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    @property
+    def processed(self):
+        return self.parts[0].processed
+
+    @property
+    def n_train(self) -> int:
+        return int(sum(p.train.sum() for p in self.parts))
+
+    @property
+    def n_check(self) -> int:
+        return int(sum(p.check.sum() for p in self.parts))
 
     def consistent_model(self) -> pin.Model:
         """The reduced model carrying the consistent inertial parameters and rotor inertias."""
         out = with_parameters(self.model, self.consistent.inertial)
-        names = self.consistent_extra_names()
-        for value, name in zip(self.consistent.extra, names):
+        for value, name in zip(self.consistent.extra, self.consistent_extra_names()):
             joint, term = name.rsplit(".", 1)
             if term == "armature":
                 out.armature[velocity_index(out, joint)] = value
         return out
 
     def consistent_extra_names(self) -> list[str]:
-        """Names of the extra terms (friction, offsets, rotor inertias), in `consistent.extra` order."""
+        """Names of the extra terms (friction, offsets, rotor inertias, ...), in `consistent.extra` order."""
         return self.ols.selection.names[10 * (self.model.njoints - 1):]
 
+    def mass_std(self) -> np.ndarray:
+        """Standard error of each body's mass in the consistent fit (kg)."""
+        return self.consistent_std[:self.consistent.inertial.size:10]
 
-def identify_log(model: pin.Model, log: JointLog, recorded: list[str], tau: np.ndarray,
-                 options: IdentifyOptions) -> IdentifyResult:
-    """Identify `model`'s inertial and friction parameters from a joint log (see the module docstring).
 
-    log: positions and velocities of `log.joints` (SI); recorded: the joints whose torque was logged, in
-    model order; tau: (T, len(recorded)) their torques (N m, or N for prismatic joints)."""
+def identify_log(model: pin.Model, parts: list[LogPart], recorded: list[str], options: IdentifyOptions,
+                 bounds: list[BodyBound] | None = None, notes: list[str] | None = None) -> IdentifyResult:
+    """Identify `model`'s inertial parameters and joint terms from the logs `parts` (module docstring).
+    recorded: the joints whose torque was logged, in model order (each part's tau in that order);
+    bounds: the plausibility bounds per body (plausible_bounds.body_bounds), None for none; notes: input
+    notes to carry into the result."""
     cfg = options
     rec_idx = [velocity_index(model, j) for j in recorded]
-    proc = process_log(log.t, model_columns(model, log.joints, log.q), model_columns(model, log.joints, log.v),
-                       tau, cfg.signal, spectrum_window=cfg.train)
-    width = cfg.coulomb_width * np.sqrt(np.mean(proc.v[_in(proc.t, cfg.train)][:, rec_idx] ** 2, axis=0))
-    # parallel filtering: regressor at the full rate, same low-pass as the torques, then decimation
-    reg_all = build_regressor(model, proc.q, proc.v, proc.a, rec_idx, cfg.terms, width).transformed(
-        lambda X: parallel_filter(proc, X))
-    t_dec = proc.decimated(proc.t)
-    tau_dec = proc.decimated(proc.effort)
-    # the zero-phase filter spreads each sample over a few cut-off periods: training samples that close to
-    # the validation window would carry its data into the fit, so they are left out
-    guard = cfg.signal.edge_periods / proc.cutoff_hz
-    train = _in(t_dec, cfg.train) & ~_in(t_dec, (cfg.validate[0] - guard, cfg.validate[1] + guard))
-    check = _in(t_dec, cfg.validate)
-    proc.choices.append(f"training samples within {guard:.3g} s ({cfg.signal.edge_periods:g} cut-off periods) of "
-                        f"the validation window left out of the fit: the zero-phase filter would carry its data "
-                        f"into them")
-    if train.sum() < 10 or check.sum() < 10:
-        raise InputError(f"after filtering, {train.sum()} training and {check.sum()} validation samples remain; "
-                         "widen the windows", source=cfg.source, field="windows")
-
-    def regressor(mask) -> Regressor:
-        return reg_all.samples(mask)
-
-    reg_train, reg_check = regressor(train), regressor(check)
-    tau_train, tau_check = tau_dec[train], tau_dec[check]
-    inflation = filtered_noise_inflation(proc.cutoff_hz, proc.fs_raw, cfg.signal.order, proc.decimation)
-    ols = fit_base(reg_train, tau_train, inflation=inflation)
-    if ols.selection.rank == 0:
-        raise InputError("the training window identifies no parameter", source=log.files["position"],
+    nr = len(recorded)
+    candidates = [c for c in cfg.candidate_terms if c != "delay"]
+    prepared = prepare_parts(model, parts, rec_idx, cfg.signal, tuple(dict.fromkeys(cfg.terms + tuple(candidates))),
+                             cfg.coulomb_width)
+    first = prepared[0].processed
+    edge = cfg.signal.edge_periods
+    first.choices.append(f"training samples within {edge / first.cutoff_hz:.3g} s ({edge:g} cut-off periods) of a "
+                         "validation window left out of the fit: the zero-phase filter would carry its data into them")
+    n_train = sum(int(p.train.sum()) for p in prepared)
+    if n_train < 10:
+        raise InputError(f"after filtering, {n_train} training samples remain; widen the windows", source=cfg.source,
                          field="windows.train")
+    inflation = max(filtered_noise_inflation(p.processed.cutoff_hz, p.processed.fs_raw, cfg.signal.order,
+                                             p.processed.decimation) for p in prepared)
+    full_train = stack([p.regressor.samples(p.train) for p in prepared])
+
+    def tau_train(delays):
+        return np.concatenate([p.torque(p.train, delays) for p in prepared])
+
+    def names_for(terms: dict[str, tuple[str, ...]]) -> list[str]:
+        return [f"{j}.{k}" for j in recorded for k in term_columns(terms[j])]
+
+    joint_terms = {j: tuple(cfg.terms) for j in recorded}
+    delays = np.zeros(nr)
+    ols = fit_base(full_train.columns(names_for(joint_terms)), tau_train(delays), inflation=inflation)
+    if ols.selection.rank == 0:
+        raise InputError("the training window identifies no parameter", source=cfg.source, field="windows.train")
+    tests, delays = _choose_terms(cfg, prepared, full_train, recorded, candidates, joint_terms, names_for, tau_train,
+                                  inflation)
+    names = names_for(joint_terms)
+    reg_train = full_train.columns(names)
+    tau_tr = tau_train(delays)
+    ols = fit_base(reg_train, tau_tr, inflation=inflation)
     cad = parameter_vector(model)
-    rss_ols, noise_unit = _noise_scale(reg_train, tau_train, ols)
+    body_names = [model.names[j] for j in range(1, model.njoints)]
+    linear = linear_bounds(bounds, len(body_names), {n: i for i, n in enumerate(body_names)}) if bounds else None
+    rss_ols, noise_unit = _noise_scale(reg_train, tau_tr, ols)
+    bound95 = float(chi2.ppf(0.95, ols.selection.rank))
     if cfg.prior_rule == "holdout":
-        prior = _holdout_choice(cfg, reg_all, t_dec, tau_dec, train, guard, ols.sigma, cad)
+        prior = _holdout_choice(cfg, prepared, names, delays, ols.sigma, cad, linear)
     else:
-        prior = within_noise_choice(reg_train, tau_train, ols.sigma, cad, cfg.prior_grid, rss_ols, noise_unit,
-                                    float(chi2.ppf(0.95, ols.selection.rank)))
-    consistent = fit_consistent(reg_train, tau_train, ols.sigma, cad, prior.chosen)
-    predict = {"cad": lambda reg: (reg.X[:, :reg.n_inertial] @ cad).reshape(-1, len(rec_idx)),
+        prior = within_noise_choice(reg_train, tau_tr, ols.sigma, cad, cfg.prior_grid,
+                                    rss_ols if cfg.prior_rule == "within_noise" else None, noise_unit, bound95, linear)
+    consistent = fit_consistent(reg_train, tau_tr, ols.sigma, cad, prior.chosen, bounds=linear)
+    std = consistent.std(rss_ols / ols.dof * ols.inflation)
+    checks = [(p, p.check) for p in prepared if p.check.any()]
+    reg_check = stack([p.regressor.samples(m) for p, m in checks]).columns(names) if checks else None
+    predict = {"cad": lambda reg: (reg.X[:, :reg.n_inertial] @ cad).reshape(-1, nr),
                "ols": ols.predict, "consistent": consistent.predict}
-    t_range = (tau_check.max(axis=0) - tau_check.min(axis=0)).tolist()
-    # the logged torque itself at the same times (linear interpolation, no filter): a target that does not
-    # depend on robocal's cut-off, for comparing with other tools
-    logged = np.column_stack([np.interp(t_dec[check], log.t, tau[:, k]) for k in range(len(rec_idx))])
-    validation, training_rms = {}, {}
-    curves = {"t": t_dec[check], "measured": tau_check, "logged": logged}
-    for name, f in predict.items():
-        pred = f(reg_check)
-        rmse = np.sqrt(np.mean((pred - tau_check) ** 2, axis=0))
-        validation[name] = {"rmse": rmse.tolist(), "percent_of_range": (100 * rmse / np.array(t_range)).tolist(),
-                            "rmse_against_logged": np.sqrt(np.mean((pred - logged) ** 2, axis=0)).tolist()}
-        training_rms[name] = np.sqrt(np.mean((f(reg_train) - tau_train) ** 2, axis=0)).tolist()
-        curves[name] = pred
-    bodies = {model.names[j]: p for j, p in zip(range(1, model.njoints), consistent.inertial.reshape(-1, 10))}
+    training_rms = {k: np.sqrt(np.mean((f(reg_train) - tau_tr) ** 2, axis=0)).tolist() for k, f in predict.items()}
+    validation, t_range, curves, wrench = {}, [], {}, {}
+    if checks:
+        measured = np.concatenate([p.torque(m, delays) for p, m in checks])
+        logged = np.concatenate([p.logged(m, delays) for p, m in checks])
+        validation, t_range, curves = validate(predict, reg_check, measured, logged)
+        curves["t"] = np.concatenate([p.t[m] for p, m in checks])
+        q_check = np.concatenate([p.processed.decimated(p.processed.q)[m] for p, m in checks])
+        wrench = wrench_rms(cfg.wrench_frame, cfg.source, model, q_check, rec_idx,
+                            {k: curves[k] for k in MODELS}, measured)
     consistency = {b: (float(np.linalg.eigvalsh(pseudo_inertia(p))[0]), is_physically_consistent(p))
-                   for b, p in bodies.items()}
-    beta_c = base_values_of(ols.selection, consistent.params)
-    within = _within_noise(reg_train, tau_train, ols, consistent, beta_c, rss_ols, noise_unit)
-    costs = constraint_costs(reg_train, tau_train, ols.sigma, cad, consistent,
-                             [model.names[j] for j in range(1, model.njoints)], noise_unit)
-    wrench = _wrench_rms(cfg, model, proc.decimated(proc.q)[check], rec_idx, {k: curves[k] for k in MODELS},
-                         tau_check)
-    return IdentifyResult(options, model, recorded, proc, train, check, ols, consistent, prior, consistency, validation,
-                          training_rms, t_range, within, wrench, curves, costs,
-                          {"train": reg_train, "check": reg_check})
+                   for b, p in zip(body_names, consistent.inertial.reshape(-1, 10))}
+    within = _within_noise(reg_train, tau_tr, ols, consistent, base_values_of(ols.selection, consistent.params),
+                           rss_ols, noise_unit)
+    # what the data push against: the constraints' costs in the fit with the weakest prior of the grid (the
+    # constraints alone; the chosen prior's own pull is not the data's), the same fit when it was chosen
+    weakest = consistent if prior.chosen == min(cfg.prior_grid) else fit_consistent(
+        reg_train, tau_tr, ols.sigma, cad, min(cfg.prior_grid), bounds=linear)
+    costs = constraint_costs(reg_train, tau_tr, ols.sigma, cad, weakest, body_names, noise_unit, linear)
+    return IdentifyResult(options, model, recorded, prepared, joint_terms, delays, tests, ols, consistent, std, prior,
+                          list(bounds or []), consistency, validation, training_rms, t_range, within, wrench, curves,
+                          costs, {"train": reg_train, **({"check": reg_check} if checks else {})}, list(notes or []),
+                          prepared[0].coulomb_width)
 
 
-def _holdout_choice(cfg: IdentifyOptions, reg_all, t_dec, tau_dec, train, guard, sigma, cad) -> PriorWeightChoice:
-    """prior_weight.holdout_choice on the training window: its first prior_split fitted, the rest scored,
-    the filter's reach left out between them (the part that scores a weight is not seen by its fit)."""
-    n_fit = int(round(cfg.prior_split * train.sum()))
-    idx = np.flatnonzero(train)
-    first, second = np.zeros_like(train), np.zeros_like(train)
-    first[idx[:n_fit]], second[idx[n_fit:]] = True, True
-    first &= t_dec < t_dec[idx[min(n_fit, len(idx) - 1)]] - guard
-    if first.sum() < 10 or second.sum() < 3:
-        raise InputError(f"choosing the prior weight leaves {first.sum()} samples to fit and {second.sum()} to score "
-                         f"(model.prior_split {cfg.prior_split:g}, {guard:.3g} s between them); widen the training "
-                         "window", source=cfg.source, field="windows.train")
-    prior = holdout_choice(reg_all.samples(first), tau_dec[first], reg_all.samples(second), tau_dec[second],
-                           sigma, cad, cfg.prior_grid, cfg.prior_split)
-    prior.gap_s = float(t_dec[second].min() - t_dec[first].max())
+def _choose_terms(cfg, prepared, full_train, recorded, candidates, joint_terms, names_for, tau_train, inflation):
+    """term_selection.py's tests, in an order that keeps one term's misfit from passing for another's: the
+    added columns with no delay, then the delays in the model with the columns found, then the columns again
+    with those delays (their final decision). Adds the kept terms to joint_terms; (tests, delays)."""
+    delays = np.zeros(len(recorded))
+    pairs = [(j, c) for j in recorded for c in candidates]
+    columns = {(j, c): full_train.X[:, full_train.names.index(f"{j}.{ADDED_COLUMN[c]}")] for j, c in pairs}
+
+    def column_tests(delays):
+        """Forward selection: the candidate with the largest statistic joins the model while it passes; the
+        others are tested again against the enlarged model (two candidates explaining one effect, e.g. Coulomb
+        and viscous asymmetry on one joint, do not both pass)."""
+        terms, result, remaining = dict(joint_terms), {}, list(pairs)
+        while remaining:
+            reg = full_train.columns(names_for(terms))
+            fit = fit_base(reg, tau_train(delays), inflation=inflation)
+            projector, weights, unit = _projector(reg, fit, tau_train(delays))
+            round_ = added_column_tests(projector, weights, tau_train(delays).reshape(-1), remaining, columns, unit,
+                                        len(pairs))
+            result.update({(t.joint, t.term): t for t in round_})
+            best = max(round_, key=lambda t: t.statistic)
+            if not best.kept:
+                break
+            terms[best.joint] += (best.term,)
+            remaining.remove((best.joint, best.term))
+        for t in result.values():           # kept: joined the model (a later round's test of it is not run)
+            t.kept = (t.joint, t.term) not in remaining
+        return [result[p] for p in pairs]
+
+    found = column_tests(delays) if pairs else []
+    tests: list[TermTest] = []
+    if "delay" in cfg.candidate_terms:
+        with_found = {j: t + tuple(f.term for f in found if f.kept and f.joint == j) for j, t in joint_terms.items()}
+        reg = full_train.columns(names_for(with_found))
+        fit = fit_base(reg, tau_train(delays), inflation=inflation)
+        projector, weights, unit = _projector(reg, fit, tau_train(delays))
+        unshifted = tau_train(delays)
+
+        def torque_at(k, d):
+            out = unshifted.copy()
+            if k is not None:
+                out[:, k] = np.concatenate([p.torque_column(p.train, k, d) for p in prepared])
+            return out
+
+        step = 1.0 / prepared[0].processed.fs_raw
+        tests += choose_delays(projector, weights, torque_at, recorded, delay_grid(step, cfg.delay_max_s), unit)
+        delays = np.array([t.value if t.kept else 0.0 for t in tests])
+        found = column_tests(delays) if pairs else []
+    tests += found
+    for t in found:
+        if t.kept:
+            joint_terms[t.joint] += (t.term,)
+    return tests, delays
+
+
+def _projector(reg: Regressor, ols: BaseFit, tau: np.ndarray) -> tuple[Projector, np.ndarray, float]:
+    """The weighted base regressor's projector, the row weights and one noise unit (weighted cost)."""
+    weights = row_weights(ols.sigma, len(tau))
+    _, noise_unit = _noise_scale(reg, tau, ols)
+    return Projector(reg.X[:, ols.selection.independent] * weights[:, None]), weights, noise_unit
+
+
+def _holdout_choice(cfg: IdentifyOptions, prepared: list[PreparedPart], names: list[str], delays: np.ndarray,
+                    sigma, cad, linear: LinearBounds | None) -> PriorWeightChoice:
+    """prior_weight.holdout_choice on the training samples: the first prior_split of them (parts in order,
+    each in time) fitted, the rest scored, the filter's reach left out between them in the part where they
+    meet (the part that scores a weight is not seen by its fit)."""
+    n_fit = int(round(cfg.prior_split * sum(int(p.train.sum()) for p in prepared)))
+    fit_parts, score_parts, seen, gap = [], [], 0, 0.0
+    for p in prepared:
+        idx = np.flatnonzero(p.train)
+        first, second = np.zeros_like(p.train), np.zeros_like(p.train)
+        k = min(max(n_fit - seen, 0), len(idx))
+        first[idx[:k]], second[idx[k:]] = True, True
+        if 0 < k < len(idx):
+            guard = cfg.signal.edge_periods / p.processed.cutoff_hz
+            first &= p.t < p.t[idx[k]] - guard
+            gap = float(p.t[idx[k]] - p.t[first].max()) if first.any() else 0.0
+        seen += len(idx)
+        fit_parts.append((p, first))
+        score_parts.append((p, second))
+    n1, n2 = sum(int(m.sum()) for _, m in fit_parts), sum(int(m.sum()) for _, m in score_parts)
+    if n1 < 10 or n2 < 3:
+        raise InputError(f"choosing the prior weight leaves {n1} samples to fit and {n2} to score (model.prior_split "
+                         f"{cfg.prior_split:g}); widen the training window", source=cfg.source, field="windows.train")
+
+    def rows(pairs):
+        return (stack([p.regressor.samples(m) for p, m in pairs]).columns(names),
+                np.concatenate([p.torque(m, delays) for p, m in pairs]))
+
+    (reg1, tau1), (reg2, tau2) = rows(fit_parts), rows(score_parts)
+    prior = holdout_choice(reg1, tau1, reg2, tau2, sigma, cad, cfg.prior_grid, cfg.prior_split, bounds=linear)
+    prior.gap_s = gap
     return prior
+
 
 def _noise_scale(reg: Regressor, tau: np.ndarray, ols: BaseFit) -> tuple[float, float]:
     """(the unconstrained fit's weighted residual sum of squares, the weighted cost of one noise unit: its
@@ -195,13 +310,13 @@ def _noise_scale(reg: Regressor, tau: np.ndarray, ols: BaseFit) -> tuple[float, 
     rss_ols = float(np.sum(((ols.predict(reg).reshape(-1) - tau.reshape(-1)) * w) ** 2))
     return rss_ols, rss_ols / ols.dof * ols.inflation
 
+
 def _within_noise(reg: Regressor, tau: np.ndarray, ols: BaseFit, fit: ConsistentFit, beta_c: np.ndarray,
                   rss_ols: float, noise_unit: float) -> dict:
     """How far the consistent fit lies from the unconstrained one, in the unconstrained fit's noise:
     the weighted residual increase (= squared Mahalanobis distance of its base parameters from the
     OLS estimate, the model being linear in them) divided by the filtered noise's variance inflation
-    (serial_correlation.py), against the chi-square 95 % quantile. rss_ols, noise_unit: `_noise_scale`;
-    fit.data_cost is the fit's weighted residual on the same rows with the same weights."""
+    (serial_correlation.py), against the chi-square 95 % quantile."""
     pred_ols, pred_fit = ols.predict(reg), fit.predict(reg)
     increase = (fit.data_cost - rss_ols) / (rss_ols / ols.dof)
     p = ols.selection.rank
@@ -212,19 +327,3 @@ def _within_noise(reg: Regressor, tau: np.ndarray, ols: BaseFit, fit: Consistent
             "rms_ratio": (np.sqrt(np.mean((pred_fit - tau) ** 2, axis=0))
                           / np.sqrt(np.mean((pred_ols - tau) ** 2, axis=0))).tolist(),
             "max_base_deviation_in_std": float(np.max(np.abs(beta_c - ols.values) / ols.std))}
-
-def _in(t: np.ndarray, window: tuple[float, float]) -> np.ndarray:
-    return (t >= window[0]) & (t < window[1])
-
-def _wrench_rms(cfg: IdentifyOptions, model, q, rec_idx, predictions, measured) -> dict:
-    """RMS (N) per world axis of the force at the wrench frame that explains the torque the model
-    misses (measured - predicted, recorded joints only; force only: the recorded joints are too few
-    to resolve a moment as well)."""
-    name = cfg.wrench_frame or model.frames[-1].name
-    if not model.existFrame(name):
-        raise InputError(f"frame '{name}' is not in the model", source=cfg.source, field="wrench.frame")
-    est = ExternalForceEstimator(model, model.getFrameId(name))
-    J = est.jacobians(q)[:, :, rec_idx]
-    mapper = WrenchMapper(force_only=True)
-    return {k: np.sqrt(np.mean(mapper.map(J, measured - pred).force ** 2, axis=0)).tolist()
-            for k, pred in predictions.items()} | {"frame": name}

@@ -7,7 +7,8 @@ the file, row and field, rather than silently re-aligned. See docs/dynamics_tiag
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+import re
 from pathlib import Path
 
 import numpy as np
@@ -24,7 +25,8 @@ TIME_TOLERANCE = 1e-9
 @dataclass
 class JointLog:
     """t (T,) s, strictly increasing; q, v, effort (T, n) in the file's units, columns in `joints`
-    order; files: {kind: path} the data came from (for error messages and provenance)."""
+    order; files: {kind: path} the data came from (for error messages and provenance); unused_efforts:
+    effort columns of the file for joints not asked for, holding non-zero values (ignored, noted)."""
 
     t: np.ndarray
     q: np.ndarray
@@ -32,6 +34,7 @@ class JointLog:
     effort: np.ndarray
     joints: list[str]
     files: dict[str, str]
+    unused_efforts: list[str] = field(default_factory=list)
 
     def window(self, start: float, stop: float) -> np.ndarray:
         """Boolean mask of the samples with start <= t < stop."""
@@ -74,7 +77,24 @@ def load_joint_log(files: dict[str, str | Path], joints: list[str], time_column:
         columns[kind] = np.column_stack([tab.column(patterns[kind].format(joint=j)) for j in joints]) \
             if joints else np.zeros((len(t), 0))
     return JointLog(t, columns["position"], columns["velocity"], columns["effort"], list(joints),
-                    {k: str(tables[k].path) for k in KINDS})
+                    {k: str(tables[k].path) for k in KINDS}, _unused(tables["effort"], patterns["effort"], joints))
+
+
+def _unused(table, pattern: str, joints: list[str]) -> list[str]:
+    """Effort columns matching the pattern for other joints, with some non-zero value."""
+    head, _, tail = pattern.partition("{joint}")
+    matcher = re.compile(re.escape(head) + "(.+)" + re.escape(tail) + "$")
+    out = []
+    for name in table.header:
+        m = matcher.match(name)
+        if m and m.group(1) not in joints:
+            try:
+                values = table.column(name)
+            except InputError:
+                continue
+            if np.any(values != 0):
+                out.append(name)
+    return out
 
 
 def _check_increasing(t: np.ndarray, table, field: str) -> None:

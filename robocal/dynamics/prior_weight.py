@@ -1,7 +1,13 @@
 """How strongly the CAD values pull the consistent fit: the prior weight lambda, chosen from the data.
 
-Two rules (the config's model.prior_rule):
-  within_noise (default): the largest lambda of the grid whose consistent fit stays within the
+Three rules (the config's model.prior_rule):
+  within_bounds_noise (default): the largest lambda of the grid whose fit stays within the noise of the
+      fit at the grid's weakest lambda under the same constraints (physical and plausibility bounds):
+      the same discrepancy test, measured from what the constraints alone already cost instead of from
+      the unconstrained fit. When the constraints cost more than the noise (a finding in itself, reported
+      by constraint_cost.py), within_noise can only take the weakest prior, which leaves every direction
+      the data do not determine free to drift between windows; this rule still pulls those to CAD.
+  within_noise: the largest lambda of the grid whose consistent fit stays within the
       unconstrained fit's noise on the training window (the squared distance of its base parameters
       from the OLS estimate, in noise units, at most the chi-square 95 % quantile for the number of
       base parameters): as much CAD as the data's noise allows (the discrepancy principle). The distance
@@ -22,7 +28,7 @@ import numpy as np
 from robocal.dynamics.consistent_fit import fit_consistent
 from robocal.dynamics.regression import Regressor
 
-RULES = ("within_noise", "holdout")
+RULES = ("within_bounds_noise", "within_noise", "holdout")
 DEFAULT_GRID = tuple(10.0 ** np.arange(-4, 2.01, 0.5))     # half-decade steps
 
 
@@ -45,23 +51,28 @@ class PriorWeightChoice:
 
 
 def within_noise_choice(reg: Regressor, tau: np.ndarray, sigma: np.ndarray, cad: np.ndarray, grid,
-                        rss_ols: float, noise_unit: float, bound: float) -> PriorWeightChoice:
-    """The largest lambda whose fit's weighted data cost exceeds the unconstrained fit's (rss_ols) by at
-    most bound noise units (noise_unit: weighted cost per unit); else the smallest lambda."""
+                        rss_ols: float | None, noise_unit: float, bound: float, bounds=None) -> PriorWeightChoice:
+    """The largest lambda whose fit's weighted data cost exceeds the reference by at most bound noise units
+    (noise_unit: weighted cost per unit); else the smallest lambda. Reference: the unconstrained fit's cost
+    rss_ols (rule within_noise), or with rss_ols None the weakest lambda's fit (within_bounds_noise).
+    bounds: the plausibility rows (plausible_bounds.LinearBounds) every fit keeps."""
     ordered = sorted(float(g) for g in grid)
-    distance = [(fit_consistent(reg, tau, sigma, cad, lam).data_cost - rss_ols) / noise_unit for lam in ordered]
+    costs = [fit_consistent(reg, tau, sigma, cad, lam, bounds=bounds).data_cost for lam in ordered]
+    rule = "within_noise" if rss_ols is not None else "within_bounds_noise"
+    reference = rss_ols if rss_ols is not None else costs[0]
+    distance = [(c - reference) / noise_unit for c in costs]
     inside = [lam for lam, d in zip(ordered, distance) if d <= bound]
     chosen = max(inside) if inside else ordered[0]
-    return PriorWeightChoice("within_noise", ordered, distance, chosen, float(bound), bool(inside))
+    return PriorWeightChoice(rule, ordered, distance, chosen, float(bound), bool(inside))
 
 
 def holdout_choice(reg_fit: Regressor, tau_fit: np.ndarray, reg_check: Regressor, tau_check: np.ndarray,
-                   sigma: np.ndarray, cad: np.ndarray, grid, split_fraction: float) -> PriorWeightChoice:
+                   sigma: np.ndarray, cad: np.ndarray, grid, split_fraction: float, bounds=None) -> PriorWeightChoice:
     """Fit on (reg_fit, tau_fit), score on (reg_check, tau_check) for each lambda of `grid`; ties go
     to the larger lambda (closer to CAD)."""
     scores = {}
     for lam in grid:
-        fit = fit_consistent(reg_fit, tau_fit, sigma, cad, lam)
+        fit = fit_consistent(reg_fit, tau_fit, sigma, cad, lam, bounds=bounds)
         err = (fit.predict(reg_check) - tau_check) / sigma
         scores[float(lam)] = float(np.mean(err**2))
     best = min(scores.values())

@@ -1,10 +1,10 @@
 """Convex least squares with every body's pseudo-inertia positive semidefinite (Clarabel).
 
     minimise 1/2 x^T H x - q^T x   over x = [pi (10 nb), phi (n_extra)]
-    subject to  pseudo_inertia(pi_b) PSD for every body b,  phi >= lower
+    subject to  pseudo_inertia(pi_b) PSD for every body b,  phi >= lower,  G pi >= h
 
 The pseudo-inertia is linear in pi (inertial.py), so this is a quadratic program over a product of
-4x4 PSD cones and a box: Clarabel, an interior-point conic solver (the default of cvxpy), solves it
+4x4 PSD cones, a box and linear rows (G pi >= h: the plausibility bounds of plausible_bounds.py): Clarabel, an interior-point conic solver (the default of cvxpy), solves it
 to its tolerance in about ten iterations. The variables are scaled by H's diagonal first, because
 the inertial parameters span several orders of magnitude. Clarabel's answer may lie a rounding
 error outside a cone; each body's pseudo-inertia is therefore clipped to its nearest PSD matrix, so
@@ -49,14 +49,17 @@ class PsdQpResult:
 
 
 def solve_psd_qp(H: np.ndarray, q: np.ndarray, n_bodies: int, lower: np.ndarray,
-                 free_bodies: tuple[int, ...] = ()) -> PsdQpResult:
+                 free_bodies: tuple[int, ...] = (), G: np.ndarray | None = None,
+                 h: np.ndarray | None = None) -> PsdQpResult:
     """Minimise 1/2 x^T H x - q^T x with the constraints of the module docstring.
     lower: (n_extra,) bounds on phi (-inf where free); free_bodies: bodies left without their PSD
-    constraint (constraint_cost.py asks what each constraint costs)."""
+    constraint (constraint_cost.py asks what each constraint costs); G (m, 10 n_bodies), h (m,): linear rows."""
     n = H.shape[0]
     n_in = 10 * n_bodies
+    G = np.zeros((0, n_in)) if G is None else np.asarray(G, float)
+    h = np.zeros(0) if h is None else np.asarray(h, float)
     constrained = [b for b in range(n_bodies) if b not in free_bodies]
-    inside = unconstrained_if_feasible(H, q, constrained, lower)
+    inside = unconstrained_if_feasible(H, q, constrained, lower, G, h)
     if inside is not None:        # the constraints are not active: the exact optimum, no interior-point margin
         return PsdQpResult(inside, 0, "Solved", True)
     diag = np.diag(H).copy()
@@ -70,6 +73,12 @@ def solve_psd_qp(H: np.ndarray, q: np.ndarray, n_bodies: int, lower: np.ndarray,
         blocks.append(A)
         rhs.append(-lower[bounded])
         cones.append(clarabel.NonnegativeConeT(len(bounded)))
+    if len(h):                               # s = G x - h >= 0
+        A = np.zeros((len(h), n))
+        A[:, :n_in] = -G
+        blocks.append(A)
+        rhs.append(-h)
+        cones.append(clarabel.NonnegativeConeT(len(h)))
     for b in constrained:                    # s = svec(pseudo_inertia(pi_b)) in the PSD cone
         A = np.zeros((10, n))
         A[:, 10 * b:10 * b + 10] = -TO_SVEC
@@ -95,15 +104,18 @@ def solve_psd_qp(H: np.ndarray, q: np.ndarray, n_bodies: int, lower: np.ndarray,
     return PsdQpResult(x, int(sol.iterations), status, status == "Solved")
 
 
-def unconstrained_if_feasible(H: np.ndarray, q: np.ndarray, bodies: list[int], lower: np.ndarray) -> np.ndarray | None:
-    """The unconstrained minimiser H^-1 q when it satisfies every constraint (the PSD test on `bodies`),
-    else None."""
+def unconstrained_if_feasible(H: np.ndarray, q: np.ndarray, bodies: list[int], lower: np.ndarray,
+                              G: np.ndarray | None = None, h: np.ndarray | None = None) -> np.ndarray | None:
+    """The unconstrained minimiser H^-1 q when it satisfies every constraint (the PSD test on `bodies`, the
+    linear rows G pi >= h), else None."""
     try:
         x = np.linalg.solve(H, q)
     except np.linalg.LinAlgError:
         return None
     n_in = len(x) - len(lower)
     if not np.all(np.isfinite(x)) or np.any(x[n_in:] < lower):
+        return None
+    if G is not None and len(G) and np.any(G @ x[:n_in] < h):
         return None
     # strict (rtol 0): this point is returned without the projection the solver's answer gets
     if not all(is_physically_consistent(x[10 * b:10 * b + 10], rtol=0.0) for b in bodies):

@@ -3,13 +3,17 @@
 The fit identifies composite bodies: Pinocchio merges into each moving body every link hanging from it
 by fixed joints, and robocal's reduced model also the subtrees of the locked joints. The change the fit
 makes to a body (identified - CAD: 10 parameters linear in the mass distribution, in the joint frame) is
-added to the body's own URDF link, the joint's child link, whose frame is the joint frame; every other
-link stays as written. So the written URDF, reduced to the same joints, carries exactly the identified
-bodies (a test reloads it). Each edited link must remain a realisable mass distribution on its own: when
-one does not (the fit took away more mass than that link has, the rest sitting in its fixed children or
-locked subtrees), no URDF is written and the reason names the link. Identified viscous and Coulomb
+shared among the URDF links merged into that body (its own link, the links fixed to it, the locked
+subtrees) in proportion to their CAD masses, each share moved into its link's frame (the pseudo-inertia
+transforms as A J A^T). The shares add up to the change, so the written URDF, reduced to the same joints,
+carries exactly the identified bodies (a test reloads it). When a share would leave a link unrealisable on
+its own (the change takes away more than that link carries, e.g. a lighter composite body whose CAD
+links differ in shape), that body's links are written instead as the identified body scaled by their
+CAD mass shares (each realisable since the body is; exact for the reduced model, but each link then has
+the body's shape): a remark names the body. Identified viscous and Coulomb
 friction go to the joints' <dynamics damping friction> (Pinocchio reads them into model.damping and
-model.friction); rotor inertias and torque offsets have no URDF element and stay in result.json.
+model.friction); rotor inertias, offsets, springs, asymmetric friction and delays have no URDF element and go to the side
+file (identified_model.py).
 Everything else in the file is kept by lxml.
 """
 from __future__ import annotations
@@ -18,7 +22,7 @@ import numpy as np
 import pinocchio as pin
 from lxml import etree
 
-from robocal.dynamics.inertial import is_physically_consistent, pseudo_inertia
+from robocal.dynamics.inertial import is_physically_consistent, params_from_pseudo_inertia, pseudo_inertia
 from robocal.io.text_files import format_number, format_numbers
 
 INERTIA_KEYS = ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
@@ -68,30 +72,43 @@ def write_friction(joint_el, viscous: float | None, coulomb: float | None) -> No
         dyn.set("friction", format_number(coulomb))
 
 
+def to_link_frame(params10: np.ndarray, placement: pin.SE3) -> np.ndarray:
+    """10 parameters about a joint frame re-expressed in a link frame placed at `placement` in it (linear:
+    any values, realisable or not)."""
+    A = np.eye(4)
+    A[:3, :3] = placement.rotation.T
+    A[:3, 3] = -placement.rotation.T @ placement.translation
+    return params_from_pseudo_inertia(A @ pseudo_inertia(params10) @ A.T)
+
+
 def identified_urdf(urdf_text: str, model: pin.Model, identified: np.ndarray, cad: np.ndarray,
-                    friction: dict[str, dict[str, float]] | None = None) -> tuple[bytes | None, list[str]]:
-    """(URDF bytes, []) with every moving body of `model` (the reduced model) carrying `identified`
-    (10 per body), or (None, reasons) when an edited link would not be realisable on its own.
+                    friction: dict[str, dict[str, float]] | None = None) -> tuple[bytes, list[str]]:
+    """(URDF bytes, remarks) with every moving body of `model` (the reduced model) carrying `identified`
+    (10 per body, each realisable); remarks name the bodies written as scaled copies (module docstring).
     cad: the model's own parameters (robocal.dynamics.inertial.parameter_vector); friction: per joint,
     {'viscous': ..., 'coulomb': ...} (either may be missing) for <dynamics>."""
     root = etree.fromstring(urdf_text.encode("utf-8"))
     joints = {j.get("name"): j for j in root.findall("joint")}
     links = {lk.get("name"): lk for lk in root.findall("link")}
     change = (np.asarray(identified, float) - np.asarray(cad, float)).reshape(-1, 10)
-    reasons = []
+    remarks = []
     for j in range(1, model.njoints):
         name = model.names[j]
+        shares = [(f.name, f.placement) for f in model.frames
+                  if f.parentJoint == j and f.type == pin.FrameType.BODY and f.name in links]
+        masses = {n: link_parameters(links[n])[0] for n, _ in shares}
+        total = sum(masses.values())
         child = joints[name].find("child").get("link")
-        new = link_parameters(links[child]) + change[j - 1]
-        if not is_physically_consistent(new):
-            eig = np.linalg.eigvalsh(pseudo_inertia(new))[0]
-            reasons.append(f"link '{child}' (the body of {name}) would have mass {new[0]:.4g} kg and smallest "
-                           f"pseudo-inertia eigenvalue {eig:.3g} kg m^2: the fit changed that body by more than the "
-                           "link itself carries (the rest hangs from it by fixed or locked joints)")
-            continue
-        write_inertial(links[child], new)
-    if reasons:
-        return None, reasons
+        weights = {n: (masses[n] / total if total > 0 else float(n == child)) for n, _ in shares}
+        added = {n: link_parameters(links[n]) + weights[n] * to_link_frame(change[j - 1], pl) for n, pl in shares
+                 if weights[n] > 0}
+        if np.any(change[j - 1]) and not all(is_physically_consistent(p) for p in added.values()):
+            body = np.asarray(identified, float).reshape(-1, 10)[j - 1]
+            added = {n: weights[n] * to_link_frame(body, pl) for n, pl in shares if weights[n] > 0}
+            remarks.append(f"the body of {name}: its change would leave a link unrealisable, so its {len(added)} "
+                           "links carry the identified body scaled by their CAD mass shares")
+        for link, params in added.items():
+            write_inertial(links[link], params)
     for name, terms in (friction or {}).items():
         write_friction(joints[name], terms.get("viscous"), terms.get("coulomb"))
-    return etree.tostring(root, xml_declaration=True, encoding="utf-8"), []
+    return etree.tostring(root, xml_declaration=True, encoding="utf-8"), remarks

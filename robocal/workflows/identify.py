@@ -1,62 +1,101 @@
-"""`robocal identify dyn.yaml`: read the config and the log, check them, identify, and return the result.
+"""`robocal identify dyn.yaml`: read the config and the logs, check them, identify, and return the result.
 
 The identification itself is robocal.dynamics.identify_log; identify_outputs.py writes the folder.
+Checks before any fit (a clear error naming file, row and field, or a note when the data stay usable):
+the URDF's inertials (urdf_checks.py), each log's windows, motion, joint limits and recorded efforts.
 See docs/dynamics_tiago.md.
 """
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pinocchio as pin
 
+from robocal.dynamics.effort_map import EffortMap
 from robocal.dynamics.identify_log import IdentifyResult, identify_log
 from robocal.dynamics.log_loading import DEFAULT_PATTERNS, JointLog, load_joint_log
+from robocal.dynamics.log_parts import LogPart, within
+from robocal.dynamics.plausible_bounds import body_bounds
 from robocal.dynamics.reduced_model import reduced_model, velocity_index
+from robocal.dynamics.urdf_checks import check_urdf_inertials, massless_body_notes, moving_links
 from robocal.errors import InputError
-from robocal.workflows.identify_config import IdentifyConfig, load_identify_config
+from robocal.workflows.identify_config import IdentifyConfig, LogSpec, load_identify_config
 
 
 def identify_from_config(path_or_dict, base_dir=None) -> IdentifyResult:
     """Run the whole identification described by a YAML file or mapping (see identify_config.py); the
     result's `config` is the whole IdentifyConfig."""
     cfg = load_identify_config(path_or_dict, base_dir)
+    if not Path(cfg.urdf).is_file():
+        raise InputError("URDF file not found", source=str(cfg.urdf), field="robot.urdf")
+    urdf_text = Path(cfg.urdf).read_text(encoding="utf-8")
+    check_urdf_inertials(urdf_text, str(cfg.urdf))            # non-finite values refused before Pinocchio reads them
     model = reduced_model(cfg.urdf, cfg.joints)
-    log = load_joint_log({k: str(p) for k, p in cfg.files.items()}, cfg.joints, cfg.time_column, cfg.patterns)
+    notes = check_urdf_inertials(urdf_text, str(cfg.urdf), moving_links(model)) + massless_body_notes(model)
     recorded = sorted(cfg.recorded, key=lambda j: velocity_index(model, j))
     rec_cols = [cfg.joints.index(j) for j in recorded]
-    check_windows(cfg, log)
-    check_motion(cfg, log, rec_cols)
-    check_limits(cfg, log, model)
-    scale = np.array([cfg.torque_scale[j] for j in recorded])
-    offset = np.array([cfg.torque_offset.get(j, 0.0) for j in recorded])
-    return identify_log(model, log, recorded, log.effort[:, rec_cols] * scale + offset, cfg)
+    effort_map = effort_map_of(cfg, recorded)
+    parts = []
+    for spec in cfg.logs:
+        log = load_joint_log({k: str(p) for k, p in spec.files.items()}, cfg.joints, spec.time_column, spec.patterns)
+        check_windows(cfg, spec, log)
+        check_limits(spec, log, model, cfg.joints)
+        check_efforts(spec, log, rec_cols, recorded)
+        notes += [f"{spec.name}: effort column '{c}' is for a joint not in robot.joints: ignored"
+                  for c in log.unused_efforts]
+        parts.append(LogPart(log, effort_map.torques(log.effort[:, rec_cols]), spec.train, spec.validate, spec.name))
+    check_motion(cfg, parts, rec_cols)
+    bounds = (body_bounds(model, urdf_text, cfg.mass_ratio, cfg.margin_m, cfg.ellipsoids) if cfg.plausible else None)
+    return identify_log(model, parts, recorded, cfg, bounds, notes)
 
 
-def check_windows(cfg: IdentifyConfig, log: JointLog) -> None:
-    for key, (a, b) in (("train", cfg.train), ("validate", cfg.validate)):
-        if a < log.t[0] or b > log.t[-1] + 1.0:
-            raise InputError(f"window [{a}, {b}] s lies outside the log ({log.t[0]:.4g} to {log.t[-1]:.4g} s)",
-                             source=cfg.source, field=f"windows.{key}")
+def effort_map_of(cfg: IdentifyConfig, recorded: list[str]) -> EffortMap:
+    return EffortMap(recorded, np.array([cfg.torque_scale[j] for j in recorded]),
+                     np.array([cfg.torque_offset.get(j, 0.0) for j in recorded]))
 
-def check_motion(cfg: IdentifyConfig, log: JointLog, rec_cols: list[int]) -> None:
-    """A recorded joint that does not move in the training window cannot be identified."""
-    mask = log.window(*cfg.train)
+
+def check_windows(cfg: IdentifyConfig, spec: LogSpec, log: JointLog) -> None:
+    for key in ("train", "validate"):
+        for a, b in getattr(spec, key):
+            if a < log.t[0] or b > log.t[-1] + 1.0:
+                raise InputError(f"{spec.name}: window [{a}, {b}] s lies outside the log ({log.t[0]:.4g} to "
+                                 f"{log.t[-1]:.4g} s)", source=cfg.source, field=f"windows.{key}")
+
+
+def check_efforts(spec: LogSpec, log: JointLog, rec_cols: list[int], recorded: list[str]) -> None:
+    """A recorded joint whose effort column is zero throughout was not logged."""
+    for k, name in zip(rec_cols, recorded):
+        if not np.any(log.effort[:, k]):
+            raise InputError("the effort is zero throughout: not logged? (leave the joint out of effort.recorded)",
+                             source=log.files["effort"], field=_column(spec, "effort", name))
+
+
+def check_motion(cfg: IdentifyConfig, parts: list[LogPart], rec_cols: list[int]) -> None:
+    """A recorded joint that does not move in any training window cannot be identified."""
     for k in rec_cols:
-        span = float(np.ptp(log.q[mask, k]))
-        if span < cfg.min_motion:
-            raise InputError(f"joint moves by {span:.3g} (< windows.min_motion = {cfg.min_motion:g}) in the "
-                             f"training window {list(cfg.train)} s: the trajectory does not excite it",
-                             source=log.files["position"], field=_position_column(cfg, cfg.joints[k]))
+        spans = [float(np.ptp(p.log.q[within(p.log.t, p.train), k])) if within(p.log.t, p.train).any() else 0.0
+                 for p in parts]
+        if max(spans) < cfg.min_motion:
+            spec = cfg.logs[int(np.argmax(spans))]
+            raise InputError(f"joint moves by {max(spans):.3g} (< windows.min_motion = {cfg.min_motion:g}) in the "
+                             f"training windows {[list(w) for w in spec.train]} s: the trajectory does not excite it",
+                             source=parts[cfg.logs.index(spec)].log.files["position"],
+                             field=_column(spec, "position", cfg.joints[k]))
 
-def _position_column(cfg: IdentifyConfig, joint: str) -> str:
-    """The position file's column of `joint` (the config's pattern, else the loader's default)."""
-    return {**DEFAULT_PATTERNS, **cfg.patterns}["position"].format(joint=joint)
+
+def _column(spec: LogSpec, kind: str, joint: str) -> str:
+    """The file's column of `joint` (the config's pattern, else the loader's default)."""
+    return {**DEFAULT_PATTERNS, **spec.patterns}[kind].format(joint=joint)
+
 
 LIMIT_MARGIN = 0.05     # of the joint's range: encoders overshoot a soft limit a little, degrees by 57x
 
-def check_limits(cfg: IdentifyConfig, log: JointLog, model: pin.Model) -> None:
+
+def check_limits(spec: LogSpec, log: JointLog, model: pin.Model, joints: list[str]) -> None:
     """A position far outside the URDF's joint limits is a unit or column mix-up (degrees, millimetres, a
     joint's column swapped), not motion: said with its file, row and column before anything is fitted."""
-    for k, name in enumerate(cfg.joints):
+    for k, name in enumerate(joints):
         joint = model.joints[model.getJointId(name)]
         if joint.nq != 1:
             continue
@@ -70,4 +109,4 @@ def check_limits(cfg: IdentifyConfig, log: JointLog, model: pin.Model) -> None:
             raise InputError(f"position {log.q[i, k]:.6g} is outside the joint's limits [{lo:.4g}, {hi:.4g}] of the "
                              f"URDF ({len(outside)} rows in all): degrees or millimetres instead of radians or "
                              "metres, or another joint's column?", source=log.files["position"], row=i + 2,
-                             field=_position_column(cfg, name))
+                             field=_column(spec, "position", name))

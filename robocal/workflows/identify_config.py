@@ -3,23 +3,32 @@
 Keys (paths relative to the YAML; units SI, torques in N m or N for prismatic joints):
   robot:   urdf; joints: the joints kept in the model (all others locked at their neutral value
            with pin.buildReducedModel)
-  data:    position, velocity, effort: CSV files; time_column (default t); columns: optional
-           {position|velocity|effort: pattern with {joint}} (default `- {joint}_position`, ...)
+  logs:    a list of logs, each: position, velocity, effort: CSV files; time_column (default t);
+           columns: optional {position|velocity|effort: pattern with {joint}} (default `- {joint}_position`,
+           ...); train: [t0, t1] or a list of such windows (s, log time); validate: the same (optional: a
+           log may only train, or only validate); name (optional). The same files may be listed twice
+           with other windows. (Motor-side signals, issue 38, add kinds to a log entry and a transmission
+           section beside `effort`; a log entry keeps its windows.)
+  data:    one log (position, velocity, effort, time_column, columns) with windows: train, validate:
+           the single-log form of `logs` (either logs or data, not both)
+  windows: min_motion (rad or m): the least position range a recorded joint must cover in the training
+           windows; with `data`, also train and validate (one window each)
   effort:  recorded: joints whose effort was logged (the others stay in the model, give no rows);
            gear_ratio, motor_constant: {joint: value}: torque = effort x gear_ratio x motor_constant
            + torque_offset; torque_offset: {joint: value} a constant added to that torque (e.g. a
            torso whose effort excludes the weight it carries: + g x carried mass)
   signal:  cutoff_hz (auto), power_fraction, cutoff_margin, order, decimate (auto),
-           velocity_source (logged|differentiated), edge_periods: see filtering.py
-  windows: train: [t0, t1], validate: [t2, t3] (s, log time; must not overlap); min_motion (rad or
-           m): the least position range a recorded joint must cover in the training window
-  model:   terms: subset of [coulomb, viscous, offset, armature]; coulomb_width: the width of the
-           tanh standing for sign(v), as a fraction of each joint's RMS speed in the training window
-           (one number for revolute and prismatic joints alike);
-           prior_rule: within_noise (default: the strongest CAD prior that keeps the consistent fit
-           within the unconstrained fit's noise) or holdout (the weight that best predicts the
-           training window's last part); prior_grid: lambda values to try; prior_split: share of
-           the training window fitted by the holdout rule (the rest scores it); prior_weight.py
+           velocity_source (logged|differentiated|auto), edge_periods: see filtering.py
+  model:   terms: always in the model, subset of [coulomb, viscous, offset, armature, spring,
+           coulomb_asymmetric, viscous_asymmetric]; candidate_terms: tried per recorded joint and kept
+           when the training data show them (spring, coulomb_asymmetric, viscous_asymmetric, delay;
+           term_selection.py); delay_max_s: the largest delay tried (s); coulomb_width: the width of the
+           tanh standing for sign(v), as a fraction of each joint's RMS speed over the training samples;
+           prior_rule: within_bounds_noise (default), within_noise or holdout (prior_weight.py);
+           prior_grid: lambda values to try; prior_split: share of the training samples fitted by the
+           holdout rule; plausible: false, or {mass_ratio: [low, high] x CAD mass (default [0.5, 2]),
+           margin_m: padding of the geometry box (default 0.05), ellipsoids: {joint: {center: [x, y, z],
+           semi_axes: [a, b, c]}} (m, joint frame)} (plausible_bounds.py; default on)
   wrench:  frame: where the external force is estimated (default: the last joint's child frame)
   output:  default output folder
 See docs/dynamics_tiago.md for the worked TIAGo example.
@@ -30,27 +39,43 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from robocal.dynamics.identify_log import IdentifyOptions
+from robocal.dynamics.plausible_bounds import MARGIN_M, MASS_RATIO, check_ellipsoids
 from robocal.io.yaml_files import read_yaml
 from robocal.workflows.config_keys import Cfg
 from robocal.dynamics.prior_weight import DEFAULT_GRID, RULES
 from robocal.dynamics.filtering import SignalOptions
-from robocal.dynamics.regression import EXTRA_TERMS
+from robocal.dynamics.regression import EXTRA_TERMS, REPLACES, TERMS
+from robocal.dynamics.term_selection import CANDIDATES
 from robocal.errors import InputError
 
-TOP_KEYS = ("robot", "data", "effort", "signal", "windows", "model", "wrench", "output")
+TOP_KEYS = ("robot", "logs", "data", "effort", "signal", "windows", "model", "wrench", "output")
 SIGNAL_KEYS = ("cutoff_hz", "power_fraction", "cutoff_margin", "order", "decimate", "nyquist_ratio",
                "velocity_source", "edge_periods")
+LOG_KEYS = ("name", "position", "velocity", "effort", "time_column", "columns", "train", "validate")
+MODEL_KEYS = ("terms", "candidate_terms", "delay_max_s", "coulomb_width", "prior_rule", "prior_grid",
+              "prior_split", "plausible")
+
+
+@dataclass
+class LogSpec:
+    """One log of the config: files {kind: path}, time_column, column patterns, its windows (lists of
+    (t0, t1) s) and a name for messages."""
+
+    files: dict[str, Path]
+    train: list[tuple[float, float]]
+    validate: list[tuple[float, float]]
+    time_column: str = "t"
+    patterns: dict[str, str] = field(default_factory=dict)
+    name: str = "log"
 
 
 @dataclass(kw_only=True)
 class IdentifyConfig(IdentifyOptions):
-    """The identification options and where the robot and the log come from (paths resolved)."""
+    """The identification options and where the robot and the logs come from (paths resolved)."""
 
     urdf: Path
     joints: list[str]
-    files: dict[str, Path]
-    time_column: str = "t"
-    patterns: dict[str, str] = field(default_factory=dict)
+    logs: list[LogSpec]
     recorded: list[str]
     torque_scale: dict[str, float]
     torque_offset: dict[str, float] = field(default_factory=dict)
@@ -68,12 +93,12 @@ def load_identify_config(path_or_dict, base_dir: str | Path | None = None) -> Id
         base = Path(base_dir).resolve() if base_dir else path.parent
     root = Cfg(raw, "", source)
     root.check_keys(TOP_KEYS)
-    robot, data, effort = root.child("robot"), root.child("data"), root.child("effort")
+    robot, effort = root.child("robot"), root.child("effort")
     robot.check_keys(("urdf", "joints"))
-    data.check_keys(("position", "velocity", "effort", "time_column", "columns"))
     effort.check_keys(("recorded", "gear_ratio", "motor_constant", "torque_offset"))
     joints = _names(robot, "joints")
-    files = {k: base / str(data.get(k, required=True, types=str)) for k in ("position", "velocity", "effort")}
+    windows = root.child("windows", {})
+    logs = _logs(root, windows, base)
     recorded = _names(effort, "recorded")
     for name in recorded:
         if name not in joints:
@@ -89,30 +114,24 @@ def load_identify_config(path_or_dict, base_dir: str | Path | None = None) -> Id
     for key in ("cutoff_hz", "decimate"):
         if opts.get(key) == "auto":
             opts[key] = None
-    windows, model, wrench = root.child("windows"), root.child("model", {}), root.child("wrench", {})
-    windows.check_keys(("train", "validate", "min_motion"))
-    model.check_keys(("terms", "coulomb_width", "prior_rule", "prior_grid", "prior_split"))
+    model, wrench = root.child("model", {}), root.child("wrench", {})
+    model.check_keys(MODEL_KEYS)
     wrench.check_keys(("frame",))
-    train, validate = _window(windows, "train"), _window(windows, "validate")
-    if train[0] < validate[1] and validate[0] < train[1]:
-        raise windows.error(f"train {list(train)} and validate {list(validate)} overlap: validation must be "
-                            "held out", "validate")
-    columns = data.get("columns", {}, types=dict)
+    terms, candidates = _terms(model)
+    plausible = _plausible(model.child("plausible", {}), joints)
     out = root.get("output")
     try:
         cfg = IdentifyConfig(
             source=source, urdf=base / str(robot.get("urdf", required=True, types=str)), joints=joints,
-            files=files, time_column=str(data.get("time_column", "t", types=str)),
-            patterns={str(k): str(v) for k, v in columns.items()}, recorded=recorded,
-            torque_scale={j: gear[j] * kmotor[j] for j in recorded},
+            logs=logs, recorded=recorded, torque_scale={j: gear[j] * kmotor[j] for j in recorded},
             torque_offset={str(k): float(v) for k, v in offsets.items()}, signal=SignalOptions(**opts),
-            train=train, validate=validate, min_motion=float(windows.get("min_motion", 0.01, types=(int, float))),
-            terms=tuple(model.get("terms", list(EXTRA_TERMS), types=list)),
+            min_motion=float(windows.get("min_motion", 0.01, types=(int, float))),
+            terms=terms, candidate_terms=candidates, delay_max_s=model.number("delay_max_s", 0.2, positive=True),
             coulomb_width=float(model.get("coulomb_width", 0.05, types=(int, float))),
             prior_grid=tuple(float(x) for x in model.get("prior_grid", list(DEFAULT_GRID), types=list)),
             prior_split=float(model.get("prior_split", 0.75, types=(int, float))),
             wrench_frame=wrench.get("frame", None, types=str), output=None if out is None else base / str(out),
-            prior_rule=str(model.get("prior_rule", "within_noise", types=str)))
+            prior_rule=str(model.get("prior_rule", "within_bounds_noise", types=str)), **plausible)
     except TypeError as exc:
         raise InputError(f"bad value: {exc}", source=source, field="signal") from None
     except InputError as exc:              # SignalOptions knows the key, not the file
@@ -126,6 +145,101 @@ def load_identify_config(path_or_dict, base_dir: str | Path | None = None) -> Id
     if not 0.3 <= cfg.prior_split < 1:
         raise model.error("prior_split must lie in [0.3, 1)", "prior_split")
     return cfg
+
+
+def _logs(root: Cfg, windows: Cfg, base: Path) -> list[LogSpec]:
+    """`logs:` entries, or the single-log form `data:` + `windows:`; windows checked (held out, in order)."""
+    if root.get("logs") is not None and root.get("data") is not None:
+        raise root.error("give either logs (a list) or data (one log), not both", "data")
+    if root.get("logs") is None:
+        data = root.child("data")
+        data.check_keys(("position", "velocity", "effort", "time_column", "columns"))
+        windows.check_keys(("train", "validate", "min_motion"))
+        entries = [(data, {**data.value, "train": windows.get("train", required=True),
+                           "validate": windows.get("validate")}, windows)]
+    else:
+        windows.check_keys(("min_motion",))
+        listed = root.get("logs", types=list)
+        if not listed:
+            raise root.error("expected a non-empty list of logs", "logs")
+        entries = []
+        for i, entry in enumerate(listed):
+            c = Cfg(entry, f"logs[{i}]", root.source)
+            c.check_keys(LOG_KEYS)
+            entries.append((c, entry, c))
+    out = []
+    for i, (c, entry, wc) in enumerate(entries):
+        files = {k: base / str(c.get(k, required=True, types=str)) for k in ("position", "velocity", "effort")}
+        train = _windows(wc, "train", entry.get("train"))
+        validate = _windows(wc, "validate", entry.get("validate"))
+        for a in train:
+            for b in validate:
+                if a[0] < b[1] and b[0] < a[1]:
+                    raise wc.error(f"train {list(a)} and validate {list(b)} overlap: validation must be held out",
+                                   "validate")
+        out.append(LogSpec(files, train, validate, str(c.get("time_column", "t", types=str)),
+                           {str(k): str(v) for k, v in c.get("columns", {}, types=dict).items()},
+                           str(entry.get("name", f"log {i + 1}"))))
+    _check_reuse(out, root)
+    return out
+
+
+def _check_reuse(logs: list[LogSpec], root: Cfg) -> None:
+    """The same files listed twice: one entry's validation may not be another's training."""
+    for i, a in enumerate(logs):
+        for j, b in enumerate(logs):
+            if i != j and a.files["position"].resolve() == b.files["position"].resolve():
+                for w in a.validate:
+                    for v in b.train:
+                        if w[0] < v[1] and v[0] < w[1]:
+                            raise root.error(f"'{a.name}' validates on {list(w)} s, which '{b.name}' trains on "
+                                             "(same files): validation must be held out", f"logs[{j}].train")
+
+
+def _windows(c: Cfg, key: str, value) -> list[tuple[float, float]]:
+    """[t0, t1] or a list of such (s); none for a missing validate."""
+    if value is None:
+        if key == "train":
+            raise c.error("required key is missing", key)
+        return []
+    items = [value] if isinstance(value, list) and len(value) == 2 and all(
+        isinstance(x, (int, float)) for x in value) else value
+    if not isinstance(items, list) or not items:
+        raise c.error("expected [start, stop] in seconds, or a list of them", key)
+    out = []
+    for w in items:
+        if not (isinstance(w, list) and len(w) == 2 and all(isinstance(x, (int, float)) for x in w) and w[0] < w[1]):
+            raise c.error("expected [start, stop] in seconds with start < stop", key)
+        out.append((float(w[0]), float(w[1])))
+    return out
+
+
+def _terms(model: Cfg) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    terms = tuple(model.get("terms", list(EXTRA_TERMS), types=list))
+    candidates = tuple(model.get("candidate_terms", [], types=list))
+    for t in terms:
+        if t not in TERMS:
+            raise model.error(f"unknown term '{t}'; known: {', '.join(TERMS)}", "terms")
+    for t in candidates:
+        if t not in CANDIDATES:
+            raise model.error(f"unknown candidate term '{t}'; known: {', '.join(CANDIDATES)}", "candidate_terms")
+        if t in REPLACES and REPLACES[t] not in terms:
+            raise model.error(f"'{t}' is tried against '{REPLACES[t]}', which model.terms must hold", "candidate_terms")
+        if t in terms:
+            raise model.error(f"'{t}' is in model.terms already", "candidate_terms")
+    return terms, candidates
+
+
+def _plausible(c: Cfg, joints: list[str]) -> dict:
+    if c.value is False:
+        return {"plausible": False}
+    c.check_keys(("mass_ratio", "margin_m", "ellipsoids"))
+    ratio = c.get("mass_ratio", list(MASS_RATIO), types=list)
+    if len(ratio) != 2 or not all(isinstance(x, (int, float)) for x in ratio) or not 0 <= ratio[0] <= 1 <= ratio[1]:
+        raise c.error("expected [low, high] with 0 <= low <= 1 <= high", "mass_ratio")
+    return {"plausible": True, "mass_ratio": (float(ratio[0]), float(ratio[1])),
+            "margin_m": c.number("margin_m", MARGIN_M, positive=True),
+            "ellipsoids": check_ellipsoids(c.get("ellipsoids", {}), joints, c.source)}
 
 
 def _names(cfg: Cfg, key: str) -> list[str]:
@@ -144,8 +258,3 @@ def _per_joint(cfg: Cfg, key: str, joints: list[str]) -> dict[str, float]:
     return {j: float(values[j]) for j in joints}
 
 
-def _window(cfg: Cfg, key: str) -> tuple[float, float]:
-    w = cfg.get(key, required=True, types=list)
-    if len(w) != 2 or not all(isinstance(x, (int, float)) for x in w) or not w[0] < w[1]:
-        raise cfg.error("expected [start, stop] in seconds with start < stop", key)
-    return float(w[0]), float(w[1])
