@@ -23,10 +23,13 @@ def _measurement_columns(raw) -> set[str]:
 
 
 def _absolute(raw, folder: Path) -> dict:
-    """The config with its files named absolutely, so it can be written elsewhere."""
+    """The config with its files named absolutely, so it can be written elsewhere (a config with sessions: its
+    first session's file as the data, the units check looks at one file at a time)."""
     raw = yaml.safe_load(yaml.safe_dump(raw))
     if "urdf" in raw["robot"]:
         raw["robot"]["urdf"] = str((folder / raw["robot"]["urdf"]).resolve())
+    if "sessions" in raw["data"]:
+        raw["data"]["csv"] = raw["data"].pop("sessions")[0]["csv"]
     raw["data"]["csv"] = str((folder / raw["data"]["csv"]).resolve())
     return raw
 
