@@ -1,14 +1,12 @@
 """Each source machine's page shows the tables its example prints (docs/architecture.md, "Docs from examples").
 
-Every example named here takes --check-docs: it computes its tables as it would print them and compares
+Every example registered in scripts/docs_from_examples.py takes --check-docs: it computes its tables as it would print them and compares
 them with the generated blocks of its page (robocal.io.doc_blocks.page_differences: same text, numbers
 within one unit of their last printed digit), exiting 1 with the differences. The fast examples recompute
 everything; the Stewart example (2 min of one core) recomputes a sample of the runs its page was rendered
 from (docs/data/stewart_calibration_runs.json) and re-renders the page from all of them.
 """
-import os
-import subprocess
-import sys
+import importlib.util
 from pathlib import Path
 
 import pytest
@@ -17,20 +15,14 @@ from robocal.errors import InputError
 from robocal.io.doc_blocks import begin_marker, end_marker, page_differences, read_block, replace_block, same_figures
 
 ROOT = Path(__file__).resolve().parents[1]
-EXAMPLES = [
-    ["examples/stewart_calibration.py"],
-    ["examples/laser_psd_zero_offsets.py"],
-    ["examples/pcmm_self_calibration.py"],
-    ["examples/floating_nut_hexapod.py"],
-    ["examples/floating_nut_calibration.py"],
-]
+_spec = importlib.util.spec_from_file_location("docs_from_examples", ROOT / "scripts" / "docs_from_examples.py")
+registry = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(registry)
 
 
-@pytest.mark.parametrize("command", EXAMPLES, ids=lambda c: Path(c[0]).stem)
+@pytest.mark.parametrize("command", registry.EXAMPLES, ids=lambda c: Path(c[0]).stem)
 def test_the_page_shows_what_the_example_prints(command):
-    env = dict(os.environ, OMP_NUM_THREADS="1", PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    run = subprocess.run([sys.executable, *command, "--check-docs"], cwd=ROOT, env=env, capture_output=True,
-                         text=True, timeout=600)
+    run = registry.run(command, "--check-docs")
     assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-3000:]
 
 
