@@ -2,18 +2,26 @@
 
 Source: Chinese invention patent (number lost in the surviving text), "Kinematics solution method with angle
 compensation for a class of rod-end-floating six-degree-of-freedom parallel robots" (docs/floating_nut_hexapod.md).
-Ends with the markdown table "spec figure / robocal figure / how computed" of that page.
-Run: OMP_NUM_THREADS=1 python examples/floating_nut_hexapod.py [output.urdf]
+Ends with the markdown table "spec figure / robocal figure / how computed" of that page; --write-docs writes
+its tables into the page, --check-docs checks that the page shows them.
+Run: OMP_NUM_THREADS=1 python examples/floating_nut_hexapod.py [output.urdf] [--write-docs | --check-docs]
 """
 import sys
+from pathlib import Path
 
 import numpy as np
+
+from robocal.io import page_differences, update_page
 
 from robocal.systems.floating_nut import reference_fixture
 from robocal.systems.floating_nut import FloatingNutKinematics
 from robocal.systems.floating_nut import write_urdf
 
 DEG = np.pi / 180
+PAGE = Path(__file__).resolve().parents[1] / "docs" / "floating_nut_hexapod.md"
+COMMAND = "OMP_NUM_THREADS=1 python examples/floating_nut_hexapod.py"
+flags = {a for a in sys.argv[1:] if a.startswith("--")}
+paths = [a for a in sys.argv[1:] if not a.startswith("--")]
 
 # the reference fixture of docs/floating_nut_hexapod.md: lead 10 mm, sigma +1, radial axes
 geometry = reference_fixture()
@@ -37,14 +45,18 @@ print(f"ignoring the nut roll: position error {np.linalg.norm(wrong[:3]) * 1e6:.
 
 # 3. Compensation magnitude over workspace boxes about the home pose
 rng = np.random.default_rng(0)
-print("\nbox (translation, rotation)   max |theta| [deg]   max |l_a| [um]   uncompensated FK error max [um]")
+box = ["| box about p0 | max abs(theta) [deg] | max abs(l_a) [um] | uncompensated FK position error, max [um] |",
+       "|---|---|---|---|"]
 for half_t, half_r in [(0.05, 0.0), (0.0, 5 * DEG), (0.05, 5 * DEG), (0.1, 10 * DEG)]:
     offsets = np.hstack([rng.uniform(-half_t, half_t, (2000, 3)), rng.uniform(-half_r, half_r, (2000, 3))])
     poses = geometry.p0 + offsets
     lc, det = kin.ik(poses, return_details=True)
     err = np.linalg.norm(kin.fk(lc, compensate=False).pose[:, :3] - poses[:, :3], axis=1)
-    print(f"+-{half_t * 1e3:3.0f} mm, +-{half_r / DEG:4.1f} deg"
-          f"{np.abs(det.theta).max() / DEG:18.2f}{np.abs(det.additional).max() * 1e6:17.1f}{err.max() * 1e6:22.1f}")
+    label = ", ".join(([f"+-{half_t * 1e3:.0f} mm"] if half_t else ["no translation"])
+                      + ([f"+-{half_r / DEG:.0f} deg"] if half_r else ["no rotation"]))
+    box.append(f"| {label} | {np.abs(det.theta).max() / DEG:.2f} | {np.abs(det.additional).max() * 1e6:.1f} | "
+               f"{err.max() * 1e6:.1f} |")
+print("\n" + "\n".join(box))
 
 # 4. The spec's reference figures (reference fixture) against robocal's, as a markdown table
 SPEC_POSES = {  # pose (x, y, z m; alpha, beta, gamma deg): (theta deg, l_a um) as printed in the spec
@@ -94,7 +106,14 @@ table += [f"| box: max abs theta; mean of per-pose max | 17.3 deg; 7.6 deg | {np
           f"{how} (largest angle component) |",
           f"| FK Newton iterations from p_0 (P5) | 4 (rarely 3) | {fk.iterations} | `kin.fk(command)` |"]
 print("\n" + "\n".join(table))
+blocks = {"spec figures": "\n".join(table), "box": "\n".join(box)}
+if "--check-docs" in flags:
+    diffs = page_differences(PAGE, blocks)
+    print("\n".join(diffs) or f"{PAGE.name} shows what this example prints")
+    sys.exit(1 if diffs else 0)
+if "--write-docs" in flags:
+    update_page(PAGE, blocks, COMMAND)
 
 # 5. The machine's URDF (tree + <loop_joint> closures + <screw_transmission> per leg)
-if len(sys.argv) > 1:
-    print(f"\nwrote {write_urdf(geometry, sys.argv[1])}")
+if paths:
+    print(f"\nwrote {write_urdf(geometry, paths[0])}")

@@ -7,16 +7,19 @@ read three times per pose, each read with 0.0005 deg of noise, and averaged), ca
 offsets before/after. Part 2 is the accuracy table of docs/laser_psd.md: a 200-trial Monte Carlo of both
 designs under the same noise model, next to the linearised prediction and the spec's figures (markdown);
 trial k draws from the k-th child seed of SeedSequence(0), so --workers/--scheduler (Dask) print the same.
+--write-docs writes the accuracy table into docs/laser_psd.md, --check-docs checks that the page shows it.
 Run:
     OMP_NUM_THREADS=1 python examples/laser_psd_zero_offsets.py [patent|three_fans] [--table-only]
-        [--workers N | --scheduler ADDR]
+        [--workers N | --scheduler ADDR] [--write-docs | --check-docs]
 """
 import argparse
 import logging
+import sys
 from pathlib import Path
 
 import numpy as np
 
+from robocal.io import page_differences, update_page
 from robocal.model import ModelState
 from robocal.model import robot_parameters
 from robocal.model import load_urdf
@@ -26,6 +29,8 @@ from robocal.systems.laser_psd import PlannedPose, multi_fan, patent_fan, plan_c
 from robocal.systems.laser_psd import PSD, SimRobot, acquire
 
 ROOT = Path(__file__).resolve().parents[1]
+PAGE = ROOT / "docs" / "laser_psd.md"
+COMMAND = "OMP_NUM_THREADS=1 python examples/laser_psd_zero_offsets.py --table-only"
 SIGMA_READ = np.radians(0.0005)          # per single joint read (the spec's simulator), every joint
 N_READS = 3                              # reads averaged per pose (the patent's embodiment)
 TRIALS = 200                             # the spec ran 40; 200 shrink our sampling spread to 5 %
@@ -97,11 +102,20 @@ if __name__ == "__main__":
     ap.add_argument("--table-only", action="store_true", help="print only the accuracy table")
     ap.add_argument("--workers", type=int, help="spread the trials over a LocalCluster of N processes (Dask)")
     ap.add_argument("--scheduler", help="spread the trials over the Dask scheduler at ADDR (tcp://host:8786)")
+    ap.add_argument("--write-docs", action="store_true", help="write the accuracy table into docs/laser_psd.md")
+    ap.add_argument("--check-docs", action="store_true", help="check that docs/laser_psd.md shows the table")
     args = ap.parse_args()
-    if not args.table_only:
+    if not (args.table_only or args.check_docs):
         one_acquisition(args.design)
+    table = accuracy_table(args.scheduler, args.workers)
+    if args.check_docs:
+        diffs = page_differences(PAGE, {"accuracy": table})
+        print("\n".join(diffs) or f"{PAGE.name} shows what this example prints")
+        sys.exit(1 if diffs else 0)
     print(f"\nAccuracy, {TRIALS}-trial Monte Carlo, {np.degrees(SIGMA_READ):g} deg noise per joint read, "
           f"{N_READS} reads averaged per pose (how computed: offset_monte_carlo on readings at which the true "
           f"beams pass through the PSD centre; predicted sd: reading_noise_covariance):\n")
-    print(accuracy_table(args.scheduler, args.workers))
+    print(table)
+    if args.write_docs:
+        update_page(PAGE, {"accuracy": table}, COMMAND)
     logging.shutdown()

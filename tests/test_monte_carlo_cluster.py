@@ -67,11 +67,11 @@ def test_laser_psd_monte_carlo_is_identical_on_the_cluster(scheduler):
 def test_stewart_mode_study_is_identical_on_the_cluster(scheduler):
     def twelve_poses(study):
         return study.full_poses(12)
-    serial = fit_machines(STEWART, TOOL, twelve_poses, False, 2, seed=3)
-    assert fit_machines(STEWART, TOOL, twelve_poses, False, 2, seed=3, scheduler=scheduler) == serial
-    before = fit_machines(STEWART, TOOL, None, False, 2, seed=3, scheduler=scheduler)
-    assert before == fit_machines(STEWART, TOOL, None, False, 2, seed=3)
+    serial = fit_machines(STEWART, TOOL, twelve_poses, "free", 2, seed=3)
+    assert fit_machines(STEWART, TOOL, twelve_poses, "free", 2, seed=3, scheduler=scheduler) == serial
+    before = fit_machines(STEWART, TOOL, None, "free", 2, seed=3, scheduler=scheduler)
+    assert before == fit_machines(STEWART, TOOL, None, "free", 2, seed=3)
     # two different machines, each fitted far below its error before calibration (1 mm parameter errors
     # give mm at the tip; 1 um noise on 12 poses gives a few um, docs/stewart_calibration.md)
-    assert serial[0] != serial[1] and all(rank == 42 for _, rank in serial)
-    assert all(after < 1e-4 < b for (after, _), (b, _) in zip(serial, before))
+    assert serial[0] != serial[1] and all(rank == 42 for _, rank, _, _ in serial)
+    assert all(after < 1e-4 < b for (after, *_), (b, *_) in zip(serial, before))

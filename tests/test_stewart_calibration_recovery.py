@@ -14,6 +14,7 @@ from robocal.residuals import PoseResidual
 from robocal.systems.stewart import calibration as sc
 from robocal.systems.stewart import modes as sm
 from robocal.systems.stewart.newton import patent_newton
+from robocal.systems.stewart.newton_study import NewtonTrial
 from robocal.systems.stewart.two_stage import calibrate_two_stage
 
 URDF = Path(__file__).resolve().parents[1] / "urdf" / "stewart_6_6.urdf"
@@ -324,3 +325,13 @@ def test_patent_newton_from_the_spec_1_mm_set_up_needs_its_safeguards(robot):
     lm = t_fixed_pose_problem(robot, truth, rows, s)
     calibrate(lm)
     assert_agrees_with_lm(newton, lm, truth)
+
+
+def test_patent_newton_needs_the_unassemblable_step_safeguard(robot):
+    """Draw 4 of SeedSequence(0) in the spec's 1 mm set-up (robocal.systems.stewart.newton_study, the
+    example's Newton table): with the Cholesky shift and the step halving alone, a trial step of the line
+    search broke a pose's loops (AssemblyError); counted as not decreasing F and halved, it converges to
+    the truth (noise-free: to the rounding floor, ~1e-10 m for this 6-pose design)."""
+    rng = np.random.default_rng(np.random.SeedSequence(0).spawn(5)[4])
+    out = NewtonTrial(robot, TOOL, safeguarded=True)(rng)
+    assert out.unassemblable > 0 and out.converged and out.error < 1e-9

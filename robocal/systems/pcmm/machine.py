@@ -130,22 +130,28 @@ def cap_directions(n: int, max_polar: float = np.radians(75.0)) -> np.ndarray:
 
 
 def simulate_probing(true_machine, artefact: Artefact, centroids, yaws, rng: np.random.Generator,
-                     n_hits: int = 9, theta_range: float = 0.3, noise: float = 0.0) -> ProbeHits:
+                     n_hits: int = 9, theta_range: float = 0.3, noise: float = 0.0, pretravel=None) -> ProbeHits:
     """Hits of the true machine on every sphere of every placement (docs/pcmm_calibration.md).
 
-    true_machine: PCMMGeometry or RawPCMM (anything with the matching IK; RawPCMM uses the raw model).
-    Tip centres lie on the sphere of radius r_ref + r_tip; theta is uniform in +-theta_range per hit;
+    true_machine: PCMMGeometry or RawPCMM (RawPCMM uses the raw model), or anything with a method
+    `readings(Y)` and `tip_radius`, `stylus` (robocal.systems.pcmm.realism.BowedColumns). `artefact`: the
+    true artefact. Tip centres lie on the sphere of radius r_ref + r_tip, less the probe's pre-travel
+    `pretravel(normals in the probe frame)` (m, or None); theta is uniform in +-theta_range per hit;
     `noise` is the standard deviation (m) of independent Gaussian axis-reading noise.
     """
-    ik = raw_inverse_kinematics if isinstance(true_machine, RawPCMM) else inverse_kinematics
+    if hasattr(true_machine, "readings"):
+        ik = type(true_machine).readings
+    else:
+        ik = raw_inverse_kinematics if isinstance(true_machine, RawPCMM) else inverse_kinematics
     dirs = cap_directions(n_hits)
     rows, plc, sph = [], [], []
     thetas = []
     for g, (C, yaw) in enumerate(zip(np.asarray(centroids).reshape(-1, 3), np.asarray(yaws).reshape(-1))):
         centres = C + artefact.centres @ rz(yaw).T
         for j, c in enumerate(centres):
-            X = c + (artefact.radii[j] + true_machine.tip_radius) * dirs
             th = rng.uniform(-theta_range, theta_range, n_hits) if theta_range > 0 else np.zeros(n_hits)
+            short = 0.0 if pretravel is None else pretravel(np.einsum("nba,nb->na", rz(th), dirs))[:, None]
+            X = c + (artefact.radii[j] + true_machine.tip_radius - short) * dirs
             q = X - np.einsum("nab,b->na", rz(th), true_machine.stylus)
             rows.append(ik(true_machine, np.column_stack([q, th])))
             plc += [g] * n_hits

@@ -7,7 +7,7 @@ explicitly as the residual's (known) tip point and the probe's tip-ball radius r
   mode 2  reference plane (contact point, outward normal)        -> PlaneResidual
   mode 3  reference cylinder, hole (R - r) or pin (R + r)        -> CylinderResidual
   mode 4  reference ball (R + r)                                 -> SphereResidual
-  mode 5  double ball bar, unknown origin offset `off`           -> BallBarResidual
+  mode 5  double ball bar, unknown origin offset `off`           -> BallBarResidual (one `off` per instrument)
 
 Orientation: measured rows are (X, Y, Z, A, B, C) in metres and radians; `rotation`/`angles` convert
 angles under a named convention: "xyz_intrinsic" R = Rx(A) Ry(B) Rz(C) (spec default), "zyx_rpy"
@@ -182,10 +182,29 @@ def ball_residual(name, samples, centre, radius, tool: Tool, sigma=1e-5, centre_
                           point=tool.tip, tip_radius=tool.tip_radius, sigma=sigma)
 
 
+class InstrumentBallBar(BallBarResidual):
+    """A ball bar set up at one place, whose origin offset belongs to the instrument: every place the same
+    bar is set up at shares the one unknown `<instrument>.offset` (the problem keeps one parameter per name)."""
+
+    def __init__(self, name, instrument: str, *args, **kwargs):
+        super().__init__(name, *args, **kwargs)
+        self.instrument = instrument
+
+    def aux_parameters(self):
+        out = super().aux_parameters()
+        for p in out:
+            if p.name == f"{self.name}.offset":
+                p.name, p.target = f"{self.instrument}.offset", self.instrument
+        return out
+
+
 def ball_bar_residual(name, samples, readings, centre, tool: Tool, sigma=1e-5, offset=0.0,
-                      centre_unknown=False) -> BallBarResidual:
+                      centre_unknown=False, instrument: str | None = None) -> BallBarResidual:
     """Mode 5: double ball bar between a known fixed-ball centre and the tool tip; the bar's origin
-    offset `off` (true length = reading + off) is an unknown `<name>.offset` solved with the rest."""
-    return BallBarResidual(name, PLATFORM, samples, np.asarray(readings, dtype=float).reshape(-1, 1), centre,
-                           offset=offset, centre_unknown=centre_unknown, offset_unknown=True, point=tool.tip,
-                           sigma=sigma)
+    offset `off` (true length = reading + off; `offset` is its start value) is an unknown solved with the
+    rest: `<name>.offset`, or `<instrument>.offset` shared by every place the one bar is set up at."""
+    args = (PLATFORM, samples, np.asarray(readings, dtype=float).reshape(-1, 1), centre)
+    kwargs = dict(offset=offset, centre_unknown=centre_unknown, offset_unknown=True, point=tool.tip, sigma=sigma)
+    if instrument is None:
+        return BallBarResidual(name, *args, **kwargs)
+    return InstrumentBallBar(name, instrument, *args, **kwargs)

@@ -8,9 +8,10 @@ the source and to cross-check it.
 
 Safeguards (docs/stewart_calibration.md): from the spec's 1 mm set-up the full Hessian a is not positive
 definite at the start (the r d2r term dominates the weak directions of a 6-pose design) and the pure
-Newton step overshoots. So a is shifted by mu I until it is positive definite (Cholesky succeeds), and the
-step is halved until F decreases (backtracking line search). Near the solution mu = 0 and the full step
-is accepted, so the quadratic rate of the patent's iteration is kept.
+Newton step overshoots. So (1) a is shifted by mu I until it is positive definite (Cholesky succeeds),
+(2) the step is halved until F decreases (backtracking line search), and (3) a step at which some pose's
+loops cannot be assembled counts as not decreasing F (halved too). Near the solution mu = 0 and the full
+step is accepted, so the quadratic rate of the patent's iteration is kept.
 """
 from __future__ import annotations
 
@@ -18,6 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from robocal.errors import AssemblyError
 from robocal.estimation.problem import Problem
 
 
@@ -27,6 +29,7 @@ class NewtonResult:
     converged: bool
     iterations: int
     F: list[float] = field(default_factory=list)   # F at the start and after every iteration
+    unassemblable: int = 0     # trial steps of the line search at which some pose's loops could not close
 
 
 MAX_HALVINGS = 30
@@ -52,6 +55,7 @@ def patent_newton(problem: Problem, e: float = 1e-6, max_iterations: int = 20, x
     params = problem.params
     x = params.free_values()
     history = []
+    broken = 0
     for it in range(1, max_iterations + 1):
         params.set_free_values(x)
         ev = problem.evaluate()
@@ -59,7 +63,7 @@ def patent_newton(problem: Problem, e: float = 1e-6, max_iterations: int = 20, x
         history.append(float(r @ r))
         if len(history) > 1 and history[-1] > 0.5 * history[-2] and history[-1] < 1e-6 * history[0]:
             # at the rounding floor (loop assembly, floating point): Newton no longer gains anything
-            return NewtonResult(x, True, it - 1, history)
+            return NewtonResult(x, True, it - 1, history, broken)
         second = np.zeros((len(x), len(x)))
         for j in range(len(x)):
             Js = []
@@ -73,7 +77,12 @@ def patent_newton(problem: Problem, e: float = 1e-6, max_iterations: int = 20, x
         dx = _newton_step(a, -2.0 * J.T @ r) if safeguarded else np.linalg.solve(a, -2.0 * J.T @ r)
         for _ in range(MAX_HALVINGS if safeguarded else 0):            # backtracking: accept the first step that lowers F
             params.set_free_values(x + dx)
-            r_new = problem.evaluate(jacobian=False).r
+            try:
+                r_new = problem.evaluate(jacobian=False).r
+            except AssemblyError:          # a step so long that some pose's loops no longer close: shorter
+                broken += 1
+                dx = 0.5 * dx
+                continue
             if r_new @ r_new < history[-1]:
                 break
             dx = 0.5 * dx
@@ -81,8 +90,8 @@ def patent_newton(problem: Problem, e: float = 1e-6, max_iterations: int = 20, x
         if np.linalg.norm(dx) <= xtol * (1.0 + np.linalg.norm(x)):
             params.set_free_values(x)
             history.append(float(problem.evaluate(jacobian=False).r @ problem.evaluate(jacobian=False).r))
-            return NewtonResult(x, True, it, history)
+            return NewtonResult(x, True, it, history, broken)
     params.set_free_values(x)
     r = problem.evaluate(jacobian=False).r
     history.append(float(r @ r))
-    return NewtonResult(x, False, max_iterations, history)
+    return NewtonResult(x, False, max_iterations, history, broken)
