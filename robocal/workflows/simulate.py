@@ -41,6 +41,32 @@ def simulate_dataset(config: str | Path, output: str | Path | None = None, seed:
     sim = config.simulation or SimulationConfig()
     seed = sim.seed if seed is None else seed
     rng = np.random.default_rng(seed)
+    out, truth_path = output_files(config, output, force)
+    robot = build_robot(config.robot, config.source)
+    labels, block_label, counts = block_rows_wanted(config, sim)
+    joint_cols = joint_columns(config.data, robot, config.frames, config.source)
+    joint_scale = [_unit_factor("length" if is_prismatic(robot, j) else "angle", config.data.joint_units.as_dict())
+                   for j in joint_cols]
+    table, block_col = provisional_table(config, robot, joint_cols, joint_scale, counts, out, rng)
+    block_rows = [np.flatnonzero(block_col == labels.index(lab)) for lab in block_label]
+    setup = build_setup(config, table=table, block_rows=block_rows)
+    truth = perturb(setup.problem.params, rng, sim.translation, sim.rotation)
+    try:
+        truth.set_values(sim.truth)
+    except InputError as exc:
+        raise InputError(exc.reason, source=config.source, field="simulation.truth") from None
+    simulate_measurements(setup.problem, truth, rng)
+    final = gathered_columns(setup, joint_scale, len(block_col))
+    final["block"] = block_col
+    out.parent.mkdir(parents=True, exist_ok=True)
+    write_csv(out, final)
+    truth_doc = {"seed": seed, "block_labels": labels, "parameters": {p.name: p.value for p in truth}}
+    write_atomic(truth_path, (json.dumps(truth_doc, indent=2) + "\n").encode())
+    return [out, truth_path]
+
+
+def output_files(config, output, force: bool) -> tuple[Path, Path]:
+    """(the CSV, its truth JSON): -o, else the config's data.csv; refused if they exist without force."""
     if output is None and config.data.csv is None:
         raise InputError("required key is missing", source=config.source, field="data.csv")
     out = Path(output).resolve() if output else config.data.csv
@@ -48,41 +74,41 @@ def simulate_dataset(config: str | Path, output: str | Path | None = None, seed:
     for p in (out, truth_path):
         if p.exists() and not force:
             raise InputError("file exists; pass --force to replace it", source=str(p))
-    robot = build_robot(config.robot, config.source)
-    rows_of, labels, block_label = [], [], []
-    for m in config.measurements:
-        cls = REGISTRY[m.type]
-        label = "observed" if cls.observed else m.name
-        block_label.append(label)
-        if label in labels:
-            continue
-        rows_of.append((label, sim.samples if cls.observed else m.samples or 20))
-        labels.append(label)
-    joint_cols = joint_columns(config.data, robot, config.frames, config.source)
-    units, joint_units = config.data.units.as_dict(), config.data.joint_units.as_dict()
-    joint_scale = [_unit_factor("length" if is_prismatic(robot, j) else "angle", joint_units) for j in joint_cols]
+    return out, truth_path
 
-    # Provisional table: random readings, placeholder measurements; the real values come from the truth.
-    n_total = sum(n for _, n in rows_of)
+
+def block_rows_wanted(config, sim) -> tuple[list[str], list[str], list[int]]:
+    """(row-group labels, each block's label, rows per group): the observed blocks share `sim.samples` rows
+    ('observed'); each contact block has its own (`samples:`, default 20), labelled with its name."""
+    labels, block_label, counts = [], [], []
+    for m in config.measurements:
+        observed = REGISTRY[m.type].observed
+        label = "observed" if observed else m.name
+        block_label.append(label)
+        if label not in labels:
+            labels.append(label)
+            counts.append(sim.samples if observed else m.samples or 20)
+    return labels, block_label, counts
+
+
+def provisional_table(config, robot, joint_cols, joint_scale, counts, out: Path, rng):
+    """(table, each row's group): random readings and placeholder measurements in the config's units; the real
+    values come from the truth."""
+    n_total = sum(counts)
     q = random_configurations(robot, list(joint_cols), n_total, rng, span=0.9)
     cols = {c: q[:, k] / joint_scale[k] for k, c in enumerate(joint_cols.values())}
-    block_col = np.concatenate([[idx] * n for idx, (_, n) in enumerate(rows_of)])
+    block_col = np.concatenate([[idx] * n for idx, n in enumerate(counts)])
     for m in config.measurements:
         for c in m.columns:
             cols[c] = np.zeros(n_total)
         if m.type == "pose" and len(m.columns) > QUAT_W:
             cols[m.columns[QUAT_W]] = np.ones(n_total)
-    table = Table.from_columns(out, {**cols, "block": block_col})
-    block_rows = [np.flatnonzero(block_col == labels.index(lab)) for lab in block_label]
-    setup = build_setup(config, table=table, block_rows=block_rows)
-    problem = setup.problem
-    truth = perturb(problem.params, rng, sim.translation, sim.rotation)
-    try:
-        truth.set_values(sim.truth)
-    except InputError as exc:
-        raise InputError(exc.reason, source=config.source, field="simulation.truth") from None
-    simulate_measurements(problem, truth, rng)
-    # Gather: write every sample back to the provisional row it came from, in the config's units.
+    return Table.from_columns(out, {**cols, "block": block_col}), block_col
+
+
+def gathered_columns(setup, joint_scale, n_total: int) -> dict[str, np.ndarray]:
+    """Every sample written back to the provisional row it came from, in the config's units."""
+    problem, units = setup.problem, setup.units
     rows = np.array([r for _, r in setup.sample_rows], dtype=int)
     final = {}
     for k, j in enumerate(problem.joint_names):
@@ -94,12 +120,7 @@ def simulate_dataset(config: str | Path, output: str | Path | None = None, seed:
         for c, column in enumerate(res.columns):
             v = final.setdefault(column, np.zeros(n_total))
             v[rows[res.samples]] = res.measurements[:, c] / _unit_factor(kinds[c], units)
-    final["block"] = block_col
-    out.parent.mkdir(parents=True, exist_ok=True)
-    write_csv(out, final)
-    truth_doc = {"seed": seed, "block_labels": labels, "parameters": {p.name: p.value for p in truth}}
-    write_atomic(truth_path, (json.dumps(truth_doc, indent=2) + "\n").encode())
-    return [out, truth_path]
+    return final
 
 
 def _unit_factor(kind: str, units: dict[str, str]) -> float:
