@@ -2,10 +2,12 @@
 
 Two terms of a block measure the same posture when every joint reading of their samples agrees to
 POSTURE_TOLERANCE (rad or m: the same row written again, possibly rounded differently). A repeated posture
-is usable data (it averages noise) and gets a note naming how many rows repeat which; but it counts once
-toward what the data can determine. The rule, before any fit (docs/config.md, "Bad input"): the
-measurement rows of the distinct postures, plus one per parameter with a prior, must be at least the
-free parameters, the count the solver needs (robocal.estimation.calibrate) with repeats taken out.
+with a new measurement is usable data (it averages noise) and gets a note; a row that copies an earlier one
+(same readings, same measured values) gets a note saying it counts that measurement twice, which makes the
+standard errors too small. Either counts once toward what the data can determine. The rule, before any fit
+(docs/config.md, "Bad input"): the measurement rows of the distinct postures, plus one per parameter with a
+prior, must outnumber the free parameters. Equal numbers are refused too: the distinct postures then fit
+exactly, and the repeats' zero residuals would pass for a noise estimate (standard errors of 1e-17 m).
 """
 from __future__ import annotations
 
@@ -31,7 +33,8 @@ class PostureCount:
     files: list[str]
     n_terms: int
     n_distinct: int
-    repeated_rows: list[int]          # file line numbers
+    repeated_rows: list[int]          # file line numbers of rows that repeat a posture with a new measurement
+    copied_rows: list[int]            # ... and of rows that copy an earlier row (readings and measured values)
     distinct_rows: int
 
 
@@ -46,43 +49,63 @@ def posture_counts(setup) -> list[PostureCount]:
     labels = posture_labels(setup.problem.values)
     out = []
     for res in setup.problem.residuals:
-        seen: set[tuple] = set()
-        repeated = []
+        seen: dict[tuple, list[np.ndarray]] = {}
+        repeated, copied = [], []
         for k in range(res.n_terms):
             key = tuple(int(labels[i]) for i in res.term_samples(k))
+            measured = res.measurements[k] if len(res.measurements) == res.n_terms else np.zeros(0)
             if key in seen:
                 file, row = setup.sample_rows[res.term_samples(k)[0]]
-                repeated.append(setup.tables[file].line(row) if file in setup.tables else row + 2)
-            seen.add(key)
+                line = setup.tables[file].line(row) if file in setup.tables else row + 2
+                same = any(np.array_equal(measured, m) for m in seen[key])
+                (copied if same else repeated).append(line)
+            seen.setdefault(key, []).append(measured)
         kept = int(np.count_nonzero(res.row_scale()))
         files = sorted({setup.sample_rows[int(i)][0] for i in np.unique(res.samples)})
-        out.append(PostureCount(res.name, files, res.n_terms, len(seen), repeated, len(seen) * kept))
+        out.append(PostureCount(res.name, files, res.n_terms, len(seen), repeated, copied, len(seen) * kept))
     return out
 
 
 def repeated_posture_notes(counts: list[PostureCount]) -> list[str]:
-    """A note per block with repeated postures: how many rows, which ones."""
+    """A note per block with repeated postures: how many rows, which ones, and what they do to the fit."""
     notes = []
     for c in counts:
-        if not c.repeated_rows:
+        if not c.repeated_rows and not c.copied_rows:
             continue
-        rows = ", ".join(str(r) for r in c.repeated_rows[:LISTED_ROWS])
-        more = len(c.repeated_rows) - LISTED_ROWS
+        parts = []
+        if c.repeated_rows:
+            parts.append(f"{plural(len(c.repeated_rows), 'row')} {verb(c.repeated_rows, 'repeat')} an earlier posture "
+                         "with a new measurement "
+                         f"({listed(c.repeated_rows)}), averaging noise")
+        if c.copied_rows:
+            parts.append(f"{plural(len(c.copied_rows), 'row')} {verb(c.copied_rows, 'copy')} an earlier row, readings "
+                         "and measured values "
+                         f"({listed(c.copied_rows)}), so the fit counts those measurements twice and its standard "
+                         "errors come out too small: remove them")
         notes.append(f"{', '.join(c.files)}: block '{c.block}' has {plural(c.n_terms, 'row')} at "
-                     f"{plural(c.n_distinct, 'distinct posture')}: {plural(len(c.repeated_rows), 'row')} repeat "
-                     f"an earlier posture (rows {rows}" + (f" and {more} more" if more > 0 else "") + "); a "
-                     "repeated posture averages noise but counts once toward what the data can determine")
+                     f"{plural(c.n_distinct, 'distinct posture')}; " + "; ".join(parts) +
+                     "; a posture counts once toward what the data can determine")
     return notes
 
 
+def verb(rows: list, word: str) -> str:
+    """The verb agreeing with the number of rows: '1 row copies', '2 rows copy'."""
+    return word if len(rows) != 1 else (word[:-1] + "ies" if word.endswith("y") else word + "s")
+
+
+def listed(rows: list[int]) -> str:
+    more = len(rows) - LISTED_ROWS
+    return ("row " if len(rows) == 1 else "rows ") + ", ".join(str(r) for r in rows[:LISTED_ROWS]) + (f" and {more} more" if more > 0 else "")
+
+
 def check_distinct_postures(setup, counts: list[PostureCount]) -> None:
-    """Refuse a fit whose distinct postures give fewer measurement rows than it has free parameters (a
+    """Refuse a fit whose distinct postures give no more measurement rows than it has free parameters (a
     parameter with a prior brings its own row)."""
     params = setup.problem.params
     free = params.free_names
     with_prior = sum(1 for n in free if params[n].prior_sigma is not None)
     rows = sum(c.distinct_rows for c in counts) + with_prior
-    if rows >= len(free):
+    if rows > len(free):
         return
     terms, distinct = sum(c.n_terms for c in counts), sum(c.n_distinct for c in counts)
     repeats = terms - distinct
@@ -91,5 +114,6 @@ def check_distinct_postures(setup, counts: list[PostureCount]) -> None:
             "posture)" if repeats else plural(distinct, "distinct posture"))
     priors = f" and {with_prior} prior rows" if with_prior else ""
     raise InputError(f"{said}, whose {rows - with_prior} measurement rows{priors} cannot determine {len(free)} free "
-                     "parameters; record more distinct postures, or fix parameters (parameters.fix)",
+                     "parameters and the noise (more rows than parameters are needed); record more distinct postures, "
+                     "or fix parameters (parameters.fix)",
                      source=", ".join(files) or setup.source)
