@@ -1,7 +1,8 @@
 """Repeated postures: a row that repeats a posture of its block adds no information about the robot's geometry.
 
 Two terms of a block measure the same posture when every joint reading of their samples agrees to
-POSTURE_TOLERANCE (rad or m: the same row written again, possibly rounded differently). A repeated posture
+POSTURE_TOLERANCE (rad or m: the same row written again, possibly rounded differently) and, when backlash
+is modelled, every joint was approached from the same side (data.approach). A repeated posture
 with a new measurement is usable data (it averages noise) and gets a note; a row that copies an earlier one
 (same readings, same measured values) gets a note saying it counts that measurement twice, which makes the
 standard errors too small. Either counts once toward what the data can determine. The rule, before any fit
@@ -46,9 +47,12 @@ def posture_labels(values: np.ndarray) -> np.ndarray:
 
 def posture_counts(setup) -> list[PostureCount]:
     """PostureCount of every block of the setup."""
-    labels = posture_labels(setup.problem.values)
+    problem = setup.problem
+    # an approach direction (-1, 0, +1) differs by 1 or 2: far off the grid, so it splits postures
+    labels = posture_labels(problem.values if problem.directions is None
+                            else np.hstack([problem.values, problem.directions]))
     out = []
-    for res in setup.problem.residuals:
+    for res in problem.residuals:
         seen: dict[tuple, list[np.ndarray]] = {}
         repeated, copied = [], []
         for k in range(res.n_terms):
@@ -94,8 +98,10 @@ def verb(rows: list, word: str) -> str:
 
 
 def listed(rows: list[int]) -> str:
+    """'row 5', 'rows 5, 6', 'rows 5, 6, ... and 40 more' (the first LISTED_ROWS, then the count)."""
     more = len(rows) - LISTED_ROWS
-    return ("row " if len(rows) == 1 else "rows ") + ", ".join(str(r) for r in rows[:LISTED_ROWS]) + (f" and {more} more" if more > 0 else "")
+    return (("row " if len(rows) == 1 else "rows ") + ", ".join(str(r) for r in rows[:LISTED_ROWS])
+            + (f" and {more} more" if more > 0 else ""))
 
 
 def check_distinct_postures(setup, counts: list[PostureCount]) -> None:
