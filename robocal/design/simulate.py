@@ -73,7 +73,8 @@ def simulate_measurements(problem: Problem, truth: ParameterSet, rng: np.random.
                                            "its acquisition with its own model (e.g. robocal.systems.pcmm.machine)")
                     i = int(res.samples[k])
                     try:
-                        problem.values[i] = _project(res, k, ms, problem.values[i], aux, rng, max_iterations)
+                        problem.values[i] = within_turns(problem, _project(res, k, ms, problem.values[i], aux, rng,
+                                                                           max_iterations))
                     except RobocalError:
                         if not skip_unreachable:
                             raise
@@ -81,6 +82,21 @@ def simulate_measurements(problem: Problem, truth: ParameterSet, rng: np.random.
     finally:
         problem.params = saved
     return unreachable
+
+
+def within_turns(problem: Problem, values: np.ndarray) -> np.ndarray:
+    """Revolute readings moved by whole turns into their URDF limits where that brings them in: the same pose,
+    read as the robot reports it (a projection onto a contact does not know the limits)."""
+    model, out = problem.robot.model, np.array(values, dtype=float)
+    for c, name in enumerate(problem.joint_names):
+        jm = model.joints[problem.robot.joint_id(name)]
+        if jm.nq != 1 or not jm.shortname().startswith("JointModelR"):
+            continue
+        lo, hi = model.lowerPositionLimit[jm.idx_q], model.upperPositionLimit[jm.idx_q]
+        turned = out[c] - 2 * np.pi * np.floor((out[c] - lo) / (2 * np.pi))      # into [lo, lo + 2 pi)
+        if np.isfinite(lo) and np.isfinite(hi) and not lo <= out[c] <= hi and turned <= hi:
+            out[c] = turned
+    return out
 
 
 def _project(res, k, ms, values, aux, rng, max_iterations, max_step=0.3):

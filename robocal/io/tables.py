@@ -1,15 +1,16 @@
 """CSV tables of joint readings and measurements, checked cell by cell.
 
 Every error names the file, the row (the line number in the file, header = line 1) and the column.
-Units: lengths in the file may be metres or millimetres, angles radians or degrees (declared in the
-config); values are converted to SI on reading, and metre columns holding millimetre-sized values are
-refused rather than silently misread.
+Units: lengths in the file may be metres, centimetres, millimetres or inches, angles radians or degrees
+(declared in the config); values are converted to SI on reading, and metre columns holding
+millimetre-sized values are refused rather than silently misread. A UTF-8 byte-order mark (spreadsheet
+programs write one) is stripped, and the table keeps a note saying so.
 """
 from __future__ import annotations
 
 import csv
 import io
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -17,12 +18,16 @@ import numpy as np
 from robocal.errors import InputError
 from robocal.io.text_files import write_atomic
 
-LENGTH_UNITS = {"m": 1.0, "mm": 1e-3}
+LENGTH_UNITS = {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "in": 0.0254}
 ANGLE_UNITS = {"rad": 1.0, "deg": np.pi / 180.0}
 #: a metre column with values beyond this (m) almost certainly holds millimetres
 MAX_PLAUSIBLE_METRES = 50.0
 #: a radian column with values beyond this (rad) almost certainly holds degrees
 MAX_PLAUSIBLE_RADIANS = 4 * np.pi
+#: the UTF-8 byte-order mark: invisible, it would otherwise become part of the first column's name
+BOM = "\ufeff"
+#: characters that make two column names print alike: BOM, zero-width space, no-break space
+INVISIBLE = "\ufeff\u200b\u00a0 "
 
 
 @dataclass
@@ -30,6 +35,7 @@ class Table:
     path: Path
     header: list[str]
     cells: list[list[str]]
+    notes: list[str] = field(default_factory=list)    # what reading changed in a usable file (a BOM stripped)
 
     @property
     def n_rows(self) -> int:
@@ -45,8 +51,11 @@ class Table:
     def column(self, name: str, kind: str = "", unit: str | None = None, rows: np.ndarray | None = None) -> np.ndarray:
         """Float column in SI units. kind: 'length', 'angle' or '' (dimensionless)."""
         if name not in self.header:
-            raise InputError(f"missing column (columns present: {', '.join(self.header)})", source=str(self.path),
-                             field=name)
+            lookalike = [h for h in self.header if h.strip(INVISIBLE) == name]
+            hint = (f"; the column {lookalike[0]!r} looks the same but holds invisible characters: rename it"
+                    if lookalike else "")
+            raise InputError(f"missing column (columns present: {', '.join(self.header)}){hint}",
+                             source=str(self.path), field=name)
         j = self.header.index(name)
         idx = range(self.n_rows) if rows is None else rows
         out = np.empty(len(idx))
@@ -105,6 +114,9 @@ def read_csv(path: str | Path) -> Table:
     reader = None
     try:
         with path.open(newline="", encoding="utf-8") as f:
+            bom = f.read(1) == BOM
+            if not bom:
+                f.seek(0)
             reader = csv.reader(f)
             rows = [r for r in reader if r and any(c.strip() for c in r)]
     except UnicodeDecodeError as exc:
@@ -124,7 +136,9 @@ def read_csv(path: str | Path) -> Table:
     for i, r in enumerate(cells):
         if len(r) != len(header):
             raise InputError(f"{len(r)} cells where the header has {len(header)}", source=str(path), row=i + 2)
-    return Table(path, header, cells)
+    notes = [f"{path}: a UTF-8 byte-order mark (written by some spreadsheet programs) was stripped before the "
+             f"header '{header[0]}'"] if bom else []
+    return Table(path, header, cells, notes)
 
 
 def write_csv(path: str | Path, columns: dict[str, np.ndarray], precision: int = 17) -> None:

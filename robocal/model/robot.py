@@ -18,6 +18,7 @@ from lxml import etree
 
 from robocal.errors import FrameNotFound, InputError
 from robocal.model.urdf_check import c_stderr_captured, check_urdf_elements
+from robocal.model.urdf_tree import check_urdf_tree
 from robocal.model.loops_urdf import read_loops
 
 # Robots of the example-robot-data package, by the short names users type.
@@ -254,6 +255,7 @@ def _parse_urdf_text(path: Path) -> tuple[str, etree._ElementTree]:
         raise InputError(f"not a URDF: the root element (line {tree.sourceline}) is <{tree.tag}>, expected <robot>",
                          source=str(path))
     check_urdf_elements(tree, path)
+    check_urdf_tree(tree, path)             # before Pinocchio: two parents can crash it
     return text, tree
 
 

@@ -17,6 +17,7 @@ from typing import ClassVar, Sequence
 import numpy as np
 import pinocchio as pin
 
+from robocal.errors import InputError
 from robocal.model import lie_arrays
 from robocal.model.lie_arrays import skew
 from robocal.model.parameters import Parameter
@@ -72,11 +73,16 @@ class Residual(ABC):
         self.name = name
         self.samples = np.asarray(samples, dtype=int).reshape(-1)
         sig = np.broadcast_to(np.asarray(sigma, dtype=float), (self.dim,)).copy()
-        if np.any(sig <= 0):
-            raise ValueError(f"residual '{name}': sigma must be positive")
+        if not np.all(np.isfinite(sig) & (sig > 0)):
+            raise InputError(f"residual '{name}': sigma must be positive and finite, got {sig.tolist()}",
+                             field="sigma")
         self.sigma = sig
         self.weights = np.ones(self.dim) if weights is None else np.broadcast_to(
             np.asarray(weights, dtype=float), (self.dim,)).copy()
+        if not np.all(np.isfinite(self.weights) & (self.weights >= 0)) or not np.any(self.weights):
+            # a weight scales a row's information: negative has no meaning, 0 drops the row (not all of them)
+            raise InputError(f"residual '{name}': weights must be finite, positive or 0 (0 drops a row) and not "
+                             f"all 0, got {self.weights.tolist()}", field="weights")
         self.aux: list[Aux] = []
         self.columns: list[str] = []
         self.measurements = np.zeros((len(self.samples), 0))

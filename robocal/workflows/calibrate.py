@@ -22,7 +22,7 @@ from robocal.estimation.calibrate import calibrate
 from robocal.estimation.result import CalibrationResult
 from robocal.io.output_folder import check_replaceable
 from robocal.viz.scene import scene_bytes, scene_note
-from robocal.workflows.data_check import nominal_states, units_findings
+from robocal.workflows.input_checks import check_inputs
 from robocal.workflows.iso9283 import check_iso9283, iso9283_run
 from robocal.workflows.outputs import write_results
 from robocal.workflows.setup import Setup
@@ -46,12 +46,9 @@ class CalibrationRun:
 
 
 def check_units(setup: Setup, allow_failed: bool) -> list[str]:
-    """Refuse data whose spread disagrees with the nominal model's by a units factor; with allow_failed,
-    return the findings as notes instead."""
-    findings = units_findings(setup, nominal_states(setup))
-    if findings and not allow_failed:
-        raise findings[0]
-    return [f"warning: {f} (going on: --allow-failed)" for f in findings]
+    """Every check of the input before a fit (workflows/input_checks.py: units, sigmas, repeated postures,
+    quaternion order, joint limits); refusals raise, notes (and, with allow_failed, findings) are returned."""
+    return check_inputs(setup, allow_failed)
 
 
 def sigma_ratio(result: CalibrationResult) -> float:

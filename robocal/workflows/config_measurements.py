@@ -22,6 +22,7 @@ SIGMA_LABELS = {**{u: (f, "length") for u, f in LENGTH_UNITS.items()}, "um": (1e
                 **{u: (f, "angle") for u, f in ANGLE_UNITS.items()}, "mrad": (1e-3, "angle"),
                 "urad": (1e-6, "angle")}
 _LABELLED = re.compile(r"^\s*([-+0-9.eE]+)\s*([a-z]+)\s*$")
+_NUMBER = re.compile(r"^\s*[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?\s*$")
 
 
 def residual_class(block: Cfg):
@@ -36,8 +37,14 @@ def residual_class(block: Cfg):
     return REGISTRY[res_type]
 
 
-def sigma_value(value, node: Cfg, key: str, units: Units) -> float:
-    """One sigma in data units: a positive number, or a labelled string converted to data units."""
+def sigma_value(value, node: Cfg, key: str, units: Units, kinds: frozenset[str] | None = None) -> float:
+    """One sigma in data units: a positive finite number, or a labelled string converted to data units.
+
+    kinds: the row kinds ('length', 'angle') the sigma applies to; a labelled sigma must measure the same
+    quantity (a position sigma in deg is refused), and an angle sigma beyond pi rad is no standard deviation."""
+    if isinstance(value, str) and _NUMBER.match(value):
+        value = float(value)          # YAML 1.1 reads 1e-5 (no dot) as text
+    kind = None
     if isinstance(value, str):
         m = _LABELLED.match(value)
         if not m or m.group(2) not in SIGMA_LABELS:
@@ -48,21 +55,63 @@ def sigma_value(value, node: Cfg, key: str, units: Units) -> float:
         except ValueError:
             raise node.error(f"'{m.group(1)}' is not a number", key) from None
         factor, kind = SIGMA_LABELS[m.group(2)]
+        if kinds is not None and kinds != {kind}:
+            raise node.error(sigma_kind_mismatch(value, kind, kinds, key), key)
         si_unit = LENGTH_UNITS if kind == "length" else ANGLE_UNITS
         value = number * factor / si_unit[getattr(units, kind)]
     elif isinstance(value, bool) or not isinstance(value, (int, float)):
         raise node.error(f"expected a number, got {type(value).__name__} ({value!r})", key)
     if not (np.isfinite(value) and value > 0):
-        raise node.error(f"a sigma must be a positive number, got {value!r}", key)
+        raise node.error(f"a sigma must be a positive number (and finite), got {value!r}", key)
+    if (kind == "angle" or kinds == {"angle"}) and value * ANGLE_UNITS[units.angle] > np.pi:
+        raise node.error(f"a sigma of {value:g} {units.angle} is beyond half a turn: no angle measurement errs by "
+                         "that much (a sigma is the measurement's standard deviation; check the value and its unit)",
+                         key)
     return float(value)
 
 
-def sigma_argument(raw, node: Cfg, units: Units):
-    """A block's `sigma` in data units: a number (or labelled string), or a mapping -> (position, orientation)."""
+def sigma_kind_mismatch(text: str, kind: str, kinds: frozenset[str], key: str) -> str:
+    """Why a labelled sigma does not fit the rows it applies to, and what to write instead."""
+    if len(kinds) > 1:
+        return (f"{text!r} is {'a length' if kind == 'length' else 'an angle'}, but this block's rows are lengths "
+                "and angles: give each its own, sigma: {position: <length>, orientation: <angle>}")
+    want = next(iter(kinds))
+    what = f"'{key}'" if key in ("position", "orientation") else "this block's rows"
+    return (f"{text!r} is {'a length' if kind == 'length' else 'an angle'}, but {what} "
+            f"{'measure' if what.startswith('this') else 'measures'} {'lengths' if want == 'length' else 'angles'}"
+            f": write it in {', '.join(u for u, (_, k) in SIGMA_LABELS.items() if k == want)}")
+
+
+#: the kind of a pose block's two sigmas
+SIGMA_KEY_KINDS = {"position": frozenset({"length"}), "orientation": frozenset({"angle"})}
+
+
+def sigma_argument(raw, node: Cfg, units: Units, kinds: frozenset[str] | None = None):
+    """A block's `sigma` in data units: a number (or labelled string), or a mapping -> (position, orientation).
+    kinds: the block's row kinds (row_kinds), which a labelled scalar sigma must match."""
     if isinstance(raw, dict):
         sub = node.child("sigma")
-        return tuple(sigma_value(raw.get(k, 1e-4), sub, k, units) for k in ("position", "orientation"))
-    return sigma_value(raw, node, "sigma", units)
+        return tuple(sigma_value(raw.get(k, 1e-4), sub, k, units, SIGMA_KEY_KINDS[k])
+                     for k in ("position", "orientation"))
+    return sigma_value(raw, node, "sigma", units, kinds)
+
+
+def row_kinds(cls) -> frozenset[str] | None:
+    """The quantities ('length', 'angle') a measurement type's rows hold; types whose rows are sized per block
+    (rigid_points: 3 per point) declare row_units as a property, read on a one-row stand-in."""
+    units = inspect.getattr_static(cls, "row_units", None)
+    if isinstance(units, property):
+        try:
+            units = units.fget(_OneRow())
+        except (AttributeError, TypeError):
+            return None
+    return frozenset(units) if isinstance(units, tuple) else None
+
+
+class _OneRow:
+    """What a sized type's row_units property reads (dim, the struts' count): one row."""
+    dim = 1
+    struts = (None,)
 
 
 def accepts_measurements(cls) -> bool:
@@ -87,7 +136,9 @@ def residual_from_block(cls, block: MeasurementConfig, source: str, parts: list[
     try:
         res = cls(name=block.name, frame=block.frame, samples=sample_idx, **kwargs)
     except (TypeError, ValueError) as exc:
-        raise InputError(getattr(exc, "reason", str(exc)), source=source, field=block.path) from None
+        key = getattr(exc, "field", None)          # a residual's InputError names its argument (weights, sigma)
+        raise InputError(getattr(exc, "reason", str(exc)), source=source,
+                         field=f"{block.path}.{key}" if key else block.path) from None
     if sigma is not None:
         # the sigma numbers are in data units: each row to SI by its quantity
         scale = {"length": LENGTH_UNITS[units.length], "angle": ANGLE_UNITS[units.angle]}

@@ -24,7 +24,7 @@ from robocal.workflows.config_types import (CalibrationConfig, CandidatesConfig,
                                             Iso9283Config, MeasurementConfig, OutputConfig, ParametersConfig,
                                             Placement, PlanConfig, RobotConfig, SessionSpec, SimulationConfig,
                                             Units)
-from robocal.workflows.config_measurements import accepts_measurements, residual_class, sigma_argument
+from robocal.workflows.config_measurements import accepts_measurements, residual_class, row_kinds, sigma_argument
 
 #: keys of a block that are not its type's own settings
 RESERVED = ("type", "name", "frame", "csv", "where", "columns", "sigma", "samples")
@@ -252,7 +252,8 @@ def measurement_config(b: Cfg, i: int, base_dir: Path, data: DataConfig) -> Meas
     return MeasurementConfig(
         cls.type_name, b.get("name", f"{cls.type_name}{i}", types=str), frame, b.path,
         None if csv is None else (base_dir / csv).resolve(), None if where is None else next(iter(where.items())),
-        tuple(str(c) for c in columns or ()), None if sigma is None else sigma_argument(sigma, b, data.units),
+        tuple(str(c) for c in columns or ()),
+        None if sigma is None else sigma_argument(sigma, b, data.units, row_kinds(cls)),
         {k: v for k, v in b.value.items() if k not in RESERVED and k not in FILLED_BY_CONFIG}, samples)
 
 

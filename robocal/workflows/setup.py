@@ -28,6 +28,7 @@ from robocal.workflows.config_read import parse_config, read_config
 from robocal.workflows.config_sections import (apply_parameter_overrides, approach_directions, joint_values,
                                                parameter_set)
 from robocal.workflows.config_types import CalibrationConfig, DataConfig, MeasurementConfig, Placement, RobotConfig
+from robocal.workflows.reading_check import check_joint_columns
 
 
 @dataclass
@@ -207,6 +208,7 @@ def block_table_rows(m: MeasurementConfig, tab: Table, given, source: str) -> np
 def joint_columns(data: DataConfig, robot: Robot, frames: Sequence[str], source: str) -> dict[str, str]:
     """{joint: CSV column} of `data.joints` (default: every joint moving a measured frame, same names)."""
     cols = {j: j for j in default_joints(robot, frames)} if data.joints is None else dict(data.joints)
+    check_joint_columns(cols, source)
     for j in cols:
         try:
             robot.joint_id(j)
