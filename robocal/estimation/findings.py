@@ -1,5 +1,7 @@
-"""Findings: robot parameters the data determine firmly, far from their nominal value. Written to the URDF and
-reported with what to check on the robot; never a reason to refuse the fit.
+"""Findings: robot parameters the data determine firmly, far from their nominal value.
+
+A finding is written to the URDF and reported with what to check on the robot; it is never a reason to refuse
+the fit.
 
 The rule (docs/validation.md argues k and m), with d = |value - nominal|, s its physical scale
 (robocal.estimation.physical_scale) and se its data-only standard error (robocal.estimation.determinacy):

@@ -28,12 +28,18 @@ STILL_FALLING = 1e-6     # relative cost decrease per iteration at the cap above
 SHOWN = 6                # parameters named on the terminal per refusal; summary.txt and result.json: all
 
 
+SOLVER_CAP, NO_DESCENT, ILL_CONDITIONED, BEYOND_SCALE, LOOSE_FREE = (
+    "iteration cap", "no descent", "ill-conditioned", "beyond physical scale", "free beyond physical scale")
+
+
 @dataclass
 class Refusal:
+    kind: str                            # one of the five above
     problem: str                         # what went wrong (without the parameter list)
     fix: str                             # the change that fixes it, in words
     items: list[str] = field(default_factory=list)      # every parameter concerned, with its figures
     changes: list[dict] = field(default_factory=list)   # alternatives, each a config fragment that fixes it
+    names: list[str] = field(default_factory=list)      # the parameters concerned
 
     def lines(self, k: int, limit: int | None = None) -> list[str]:
         """'Refused (k): ...' and '  Fix: ...'; limit: items and change entries shown (None: all)."""
@@ -45,7 +51,8 @@ class Refusal:
         return [f"Refused ({k}): {problem}.", f"  Fix: {fix}."]
 
     def to_dict(self) -> dict:
-        return {"problem": self.problem, "parameters": self.items, "fix": self.fix, "config_changes": self.changes}
+        return {"kind": self.kind, "problem": self.problem, "parameters": self.names, "figures": self.items,
+                "fix": self.fix, "config_changes": self.changes}
 
 
 def flow(change, limit: int | None = None) -> str:
@@ -129,7 +136,7 @@ def solver_refusals(result, regularisation: str, max_iterations: int) -> list[Re
     if solve.success:
         return []
     if solve.nit < max_iterations:
-        return [Refusal(f"the solver found no step that lowers the cost ({solve.message})",
+        return [Refusal(NO_DESCENT, f"the solver found no step that lowers the cost ({solve.message})",
                         "check the data (units, joint columns, outliers: solver: {loss: huber}) and the starting "
                         "model (robot.base, parameters.initial)")]
     costs = [h.cost for h in solve.history[-3:]]
@@ -141,7 +148,7 @@ def solver_refusals(result, regularisation: str, max_iterations: int) -> list[Re
         changes.append({"solver": {"regularisation": "auto"}})
     words = ("the cost was still falling: raise the cap" if falling else "") + (
         (" or " if falling else "") + "let the default prior hold weak directions" if regularisation != "auto" else "")
-    return [Refusal(f"the solver stopped at its cap of {max_iterations} iterations before converging",
+    return [Refusal(SOLVER_CAP, f"the solver stopped at its cap of {max_iterations} iterations before converging",
                     (words + ", with" if changes else
                      "the cost had stalled and the default prior is on: run `robocal select CONFIG` for the model "
                      "the data support, or hold the loose parameters named under Identifiability"),
@@ -157,19 +164,20 @@ def check_fit(result, nominal: dict[str, float], scales, regularisation: str, ma
         weak = [n for n in result.weakest_direction if n in params]
         robot = [n for n in weak if n in scales.scale]
         change = hold(params, robot or weak[-1:], scales)
-        out.append(Refusal(f"the fit is ill-conditioned (condition number {result.condition:.3g} > "
-                           f"{result.condition_limit:.3g}); its weakest direction moves "
-                           + ", ".join(weak), hold_words(change), changes=[change]))
+        out.append(Refusal(ILL_CONDITIONED, f"the fit is ill-conditioned (condition number {result.condition:.3g} "
+                           f"> {result.condition_limit:.3g}); its weakest direction moves " + ", ".join(weak),
+                           hold_words(change), changes=[change], names=weak))
     far = [n for n, s in scales.scale.items() if n in params and params[n].vary
            and abs(params[n].value - nominal.get(n, 0.0)) > BEYOND * s
            and not firmly_determined(params[n].value - nominal.get(n, 0.0), data_se.get(n))]
     if far:
         change = hold(params, far, scales)
-        out.append(Refusal(f"{len(far)} parameter(s) beyond {BEYOND:g} physical scales from nominal that the data "
-                           f"do not determine (fewer than {FINDING_SIGMAS:g} data-only standard errors from nominal)",
+        out.append(Refusal(BEYOND_SCALE, f"{len(far)} parameter(s) beyond {BEYOND:g} physical scales from nominal "
+                           f"that the data do not determine (fewer than {FINDING_SIGMAS:g} data-only standard errors "
+                           "from nominal)",
                            hold_words(change),
                            [figure(params[n], nominal.get(n, 0.0), scales.scale[n], data_se.get(n, np.inf))
-                            for n in far], [change]))
+                            for n in far], [change], far))
     if det is not None:
         # free: the data leave it loose and nothing else holds it either (its standard error with every prior's
         # contribution, its own or its partners', is still beyond BEYOND scales)
@@ -178,12 +186,13 @@ def check_fit(result, nominal: dict[str, float], scales, regularisation: str, ma
         if loose:
             change = hold(params, loose, scales)
             changes = [change] + ([{"solver": {"regularisation": "auto"}}] if regularisation != "auto" else [])
-            out.append(Refusal(f"{len(loose)} parameter(s) the data leave free beyond {BEYOND:g} physical scales "
-                               "(standard error, with every prior's contribution), nothing holding them",
+            out.append(Refusal(LOOSE_FREE, f"{len(loose)} parameter(s) the data leave free beyond {BEYOND:g} "
+                               "physical scales (standard error, with every prior's contribution), nothing holding "
+                               "them",
                                hold_words(change)[:-1] + (", or let the default prior hold them:"
                                                           if regularisation != "auto" else ":"),
                                [figure(params[n], nominal.get(n, 0.0), scales.scale[n], data_se[n]) for n in loose],
-                               changes))
+                               changes, loose))
     return out
 
 
