@@ -131,7 +131,7 @@ def figure(p, nominal: float, scale: float, se_data: float) -> str:
     return f"{p.name} = {k * p.value:+.4g} {u} ({se}, {abs(d) / scale:.3g} physical scales)"
 
 
-def solver_refusals(result, regularisation: str, max_iterations: int) -> list[Refusal]:
+def solver_refusals(result, scales, regularisation: str, max_iterations: int) -> list[Refusal]:
     solve = result.solve
     if solve.success:
         return []
@@ -141,23 +141,30 @@ def solver_refusals(result, regularisation: str, max_iterations: int) -> list[Re
                         "model (robot.base, parameters.initial)")]
     costs = [h.cost for h in solve.history[-3:]]
     falling = len(costs) >= 2 and (costs[0] - costs[-1]) / max(abs(costs[0]), 1e-300) > STILL_FALLING * len(costs)
-    changes = []
+    changes, words = [], []
     if falling:
         changes.append({"solver": {"max_iterations": 4 * max_iterations}})
+        words.append("the cost was still falling: raise the cap")
     if regularisation != "auto":
         changes.append({"solver": {"regularisation": "auto"}})
-    words = ("the cost was still falling: raise the cap" if falling else "") + (
-        (" or " if falling else "") + "let the default prior hold weak directions" if regularisation != "auto" else "")
+        words.append("let the default prior hold the weak directions")
+    det = result.determinacy
+    loose = [n for n in (det.names_in(LOOSE) if det is not None else []) if n in scales.scale]
+    if not changes and loose:        # stalled along the loose directions: hold those parameters
+        changes.append(hold(result.params, loose, scales))
+        words.append(hold_words(changes[-1])[:-1])
+    if not changes:
+        return [Refusal(SOLVER_CAP, f"the solver stopped at its cap of {max_iterations} iterations before converging",
+                        "the cost had stalled with no loose robot parameter to hold: check the data and the "
+                        "starting model, or run `robocal select CONFIG` for a model the data support")]
+    held = loose if "parameters" in changes[-1] else []
     return [Refusal(SOLVER_CAP, f"the solver stopped at its cap of {max_iterations} iterations before converging",
-                    (words + ", with" if changes else
-                     "the cost had stalled and the default prior is on: run `robocal select CONFIG` for the model "
-                     "the data support, or hold the loose parameters named under Identifiability"),
-                    changes=changes)]
+                    " or ".join(words) + ", with", changes=changes, names=held)]
 
 
 def check_fit(result, nominal: dict[str, float], scales, regularisation: str, max_iterations: int) -> list[Refusal]:
     """Refusals of a finished fit (empty: plausible)."""
-    out = solver_refusals(result, regularisation, max_iterations)
+    out = solver_refusals(result, scales, regularisation, max_iterations)
     params, det = result.params, result.determinacy
     data_se = det.stderr if det is not None else {}
     if result.ill_conditioned:
