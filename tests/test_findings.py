@@ -15,6 +15,7 @@ from robocal import load_example, load_urdf
 from robocal.cli.main import main
 from robocal.estimation.calibrate import calibrate
 from robocal.estimation.physical_scale import BEYOND, FINDING_SCALES, FINDING_SIGMAS
+from robocal.viz.report_validation import refusal_section
 from robocal.estimation.plausibility import BEYOND_SCALE, LOOSE_FREE, SOLVER_CAP, merge_change
 from robocal.workflows.config_read import parse_config
 from robocal.workflows.setup import build_setup
@@ -116,6 +117,8 @@ def test_tiago_hand_compliance_is_a_finding_and_the_model_is_written(tmp_path):
     assert arm6["in_standard_errors"] > 10 and arm6["in_physical_scales"] > BEYOND
     assert "effort limit" in arm6["scale_basis"] and "stiffness" in arm6["check"]
     assert not result["refusals"] and result["status"] == "converged"
+    page = "".join(refusal_section(result))         # the report's section, from result.json
+    assert "Findings: check these on the robot" in page and "arm_6_joint.compliance = +21.5" in page
 
 
 def test_tiago_study_priors_refusal_fixes_are_exact_and_work():
@@ -128,6 +131,8 @@ def test_tiago_study_priors_refusal_fixes_are_exact_and_work():
     assert "arm_3_joint.rz" not in suggested and "arm_7_joint.compliance" in suggested
     assert "arm_6_joint.compliance" in {f.name for f in result.findings}
     assert_fixes_are_exact_and_work(raw, TIAGO, result)
+    page = "".join(refusal_section(json.loads(result.to_json())))
+    assert "Refused" in page and "arm_7_joint.compliance" in page and "0.00152" in page
 
 
 def test_long_lists_show_a_count_on_the_terminal_and_every_name_in_the_summary():

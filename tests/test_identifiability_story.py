@@ -43,7 +43,7 @@ def test_summary_result_json_and_report_tell_the_same_story(tmp_path):
     page = (out / "report.html").read_text()
     assert html.escape(sentence) in page
     for cls, n in counts.items():
-        assert f"<td>  {html.escape(cls)}</td><td>{n}</td>" in page
+        assert f"<td>class: {html.escape(cls)}</td><td>{n}</td>" in page
     # field names say what they hold: the default prior's parameters got it; the loose ones explain why
     prior = result["default_prior"]
     with_prior = {p["name"] for p in result["parameters"] if "prior" in p}

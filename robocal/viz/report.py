@@ -107,7 +107,7 @@ def report_html(result: dict, scene: dict | None = None, meshes: bool = True, ti
                ["degrees of freedom", result.get("degrees_of_freedom")],
                ["identifiable from the data alone", f"{ident.get('identifiable_from_data')} of "
                                                      f"{ident.get('requested')} requested"],
-               *[[f"  {cls}", n] for cls, n in (ident.get("counts") or {}).items()],
+               *[[f"class: {cls}", n] for cls, n in (ident.get("counts") or {}).items()],
                ["condition number", format_value(result.get("condition_number"), ".3g")],
                ["residual / stated sigma", format_value(result.get("sigma_ratio"), ".3f")]]
     if scene:
