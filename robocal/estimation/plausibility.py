@@ -169,11 +169,11 @@ def check_fit(result, nominal: dict[str, float], scales, regularisation: str, ma
     data_se = det.stderr if det is not None else {}
     if result.ill_conditioned:
         weak = [n for n in result.weakest_direction if n in params]
-        robot = [n for n in weak if n in scales.scale]
-        change = hold(params, robot or weak[-1:], scales)
+        held = [n for n in weak if n in scales.scale] or weak[-1:]      # robot parameters, else the latest one
+        change = hold(params, held, scales)
         out.append(Refusal(ILL_CONDITIONED, f"the fit is ill-conditioned (condition number {result.condition:.3g} "
                            f"> {result.condition_limit:.3g}); its weakest direction moves " + ", ".join(weak),
-                           hold_words(change), changes=[change], names=weak))
+                           hold_words(change), changes=[change], names=held))
     far = [n for n, s in scales.scale.items() if n in params and params[n].vary
            and abs(params[n].value - nominal.get(n, 0.0)) > BEYOND * s
            and not firmly_determined(params[n].value - nominal.get(n, 0.0), data_se.get(n))]
