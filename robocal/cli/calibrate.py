@@ -21,7 +21,7 @@ def print_run(run: CalibrationRun, quiet: bool, warnings: list[str] = ()) -> int
     result = run.result
     for warning in [*warnings, *run.warnings]:
         print(f"robocal: {warning}", file=sys.stderr)
-    print(result.summary())
+    print(result.summary(terminal=True))       # long name lists as a count; summary.txt holds every one
     if not quiet:
         for note in run.notes:
             print(f"robocal: {note}", file=sys.stderr)
