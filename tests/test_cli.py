@@ -18,7 +18,12 @@ def test_demo_writes_urdf_json_and_summary(tmp_path, capsys):
     assert files == [".robocal-manifest.json", "config.yaml", "report.html", "result.json", "scene.json", "summary.txt",
                      "ur5_robot_calibrated.urdf"]
     result = json.loads((out / "result.json").read_text())
-    assert result["success"] and result["identifiability"]["rank"] == 30
+    ident = result["identifiability"]
+    assert result["success"] and ident["identifiable_from_data"] == 30
+    # one partition of the 54 requested parameters, the same counts as the statements say
+    assert ident["counts"] == {"determined": 30, "weakly determined": 0, "loose": 0, "set by the prior": 0, "fixed": 24}
+    assert ident["statements"][0].startswith("Of 54 requested parameters, 30 are identifiable from the data alone: "
+                                             "30 determined")
     by_name = {p["name"]: p for p in result["parameters"]}
     assert by_name["wrist_2_joint.offset"]["identifiable"] is True
     assert by_name["wrist_2_joint.offset"]["stderr"] > 0

@@ -34,14 +34,15 @@ def test_report_of_the_demo_result_has_tables_plots_statements_and_scene(tmp_pat
     result = json.loads((folder / "result.json").read_text())
     for statement in result["identifiability"]["statements"]:
         assert html.escape(statement) in page
-    assert "of 54 requested parameters can be determined" in page
+    assert "Of 54 requested parameters, 30 are identifiable from the data alone" in page
+    assert "<td>identifiable from the data alone</td><td>30 of 54 requested</td>" in page
     images = re.findall(r'src="data:image/png;base64,([A-Za-z0-9+/=]+)"', page)
     assert len(images) == 4          # residual per sample, histograms, parameters, singular values
     assert all(base64.b64decode(i)[:4] == b"\x89PNG" and len(i) > 10_000 for i in images)
     assert '<iframe class="scene"' in page and "MeshCat.Viewer" in html.unescape(page)
     # every estimated parameter has a row, in mm / mrad
     n_est = sum(p["vary"] for p in result["parameters"])
-    assert page.count("<td>estimated</td>") == n_est
+    assert page.count("<td>determined</td>") == n_est == 30     # the demo's data determine every kept one
     assert "<td>mrad</td>" in page and "<td>mm</td>" in page
 
 

@@ -29,10 +29,10 @@ def test_weak_and_confounded_data_converge_physically_with_the_default_prior(tmp
     for name, s in scales.scale.items():               # every robot parameter within physical scale
         assert abs(setup.problem.params[name].value) < BEYOND * s, name
     # structurally confounded pairs: decided by the prior alone, and said so
-    assert result.prior_only and all(result.determinacy.classes[n] == "not determined" for n in result.prior_only)
+    assert result.prior_only and all(result.determinacy.classes[n] == "set by the prior" for n in result.prior_only)
     decided = [d for d in result.determinacy.directions if d.decided_by_prior]
     assert decided and any("wrist" in n for d in decided for n, _ in d.terms)
-    assert any("the prior decided it" in s for s in result.identifiability_statements())
+    assert any("its prior decides it" in s for s in result.identifiability_statements())
     # the same data without the prior: refused, with the way forward printed first
     off = setup_for_data(cfg)
     off.options.regularisation = "none"

@@ -3,7 +3,7 @@ determinacy classes, the one-standard-error rule, the honest block statistics.""
 import numpy as np
 import pytest
 
-from robocal.estimation.determinacy import DETERMINED, NOT_DETERMINED, WEAK, classify
+from robocal.estimation.determinacy import CLASSES, DETERMINED, FIXED, LOOSE, PRIOR_ONLY, WEAK, classify
 from robocal.estimation.model_selection import one_standard_error
 from robocal.estimation.regularisation import choose_strength
 from robocal.estimation.result import term_norms
@@ -50,19 +50,22 @@ def test_evidence_is_maximised_over_the_noise_for_every_strength():
 
 
 def test_classes_against_threshold_and_scale_and_the_weak_direction_in_words():
-    # three parameters: one seen strongly, one weakly, and a pair whose difference the data never see
-    J = np.array([[1e5, 0, 0, 0], [0, 50.0, 0, 0], [0, 0, 1.0, 1.0], [0, 0, 1.0, 1.0]])
+    # identifiable from the data: one seen strongly, one weakly, and a pair whose difference the data barely see;
+    # e is set by its prior only, f is fixed (neither identifiable from the data)
+    J = np.array([[1e5, 0, 0, 0], [0, 50.0, 0, 0], [0, 0, 1.0, 1.0], [0, 0, 1.0, 1.0 + 1e-6]])
     names = ["a", "b", "c", "d"]
     thresholds = np.full(4, 1e-4)
-    det = classify(names, J, 1.0, thresholds, np.full(4, 1e-2), ["e"], with_prior={"c", "d"})
-    # se(a) = 1e-5 < 1e-4; se(b) = 0.02 > scale 0.01 -> not determined; c, d: no information
-    assert det.classes["a"] == DETERMINED and det.classes["b"] == NOT_DETERMINED
-    assert det.classes["c"] == NOT_DETERMINED and det.classes["e"] == NOT_DETERMINED
-    det2 = classify(names[:2], J[:2, :2], 1.0, thresholds[:2], np.array([1e-2, 1.0]), [], set())
+    det = classify(names, J, 1.0, thresholds, np.full(4, 1e-2), ["e"], ["f"], with_prior={"c", "d", "e"})
+    # se(a) = 1e-5 < 1e-4; se(b) = 0.02 > scale 0.01 -> loose; c - d: standard error ~1e6 -> loose
+    assert det.classes == {"a": DETERMINED, "b": LOOSE, "c": LOOSE, "d": LOOSE, "e": PRIOR_ONLY, "f": FIXED}
+    # one partition: every parameter in exactly one class, counted the same way everywhere
+    assert sum(det.counts().values()) == 6 and det.identifiable == 4 and tuple(det.counts()) == CLASSES
+    assert np.isinf(det.stderr["e"]) and np.isinf(det.stderr["f"]) and det.stderr["a"] == pytest.approx(1e-5)
+    det2 = classify(names[:2], J[:2, :2], 1.0, thresholds[:2], np.array([1e-2, 1.0]), [], [], set())
     assert det2.classes["b"] == WEAK                      # 0.02 below a scale of 1
     null = det.directions[0]
     assert {n for n, _ in null.terms} == {"c", "d"} and null.decided_by_prior
-    assert "the prior decided it" in null.describe()
+    assert "its prior decides it" in null.describe()
 
 
 def test_one_standard_error_rule_keeps_the_simplest_model_within_reach_of_the_best():

@@ -13,19 +13,23 @@ JOINTS = ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_j
           "wrist_3_joint"]
 
 
-def truth_params(robot, rng, compliance=None, geometric=True):
+def truth_params(robot, rng, compliance=None, geometric=True, offsets=None):
     params = robot_parameters(robot, JOINTS, "full", base=True, compliance=list(compliance or {}))
     if geometric:   # placement errors of half a millimetre / milliradian: the full model is needed
         params = perturb(params, rng, 5e-4, 5e-4)
     for j, c in (compliance or {}).items():
         params[f"{j}.compliance"].value = c
+    for j, o in (offsets or {}).items():
+        params[f"{j}.offset"].value = o
     return params
 
 
-def write_case(folder, rng, n=40, compliance=None, spread=None, parameters=None, groups=None, geometric=True):
-    """config.yaml + data.csv of a simulated calibration; returns (config path, truth ParameterSet, values)."""
+def write_case(folder, rng, n=40, compliance=None, spread=None, parameters=None, groups=None, geometric=True,
+               offsets=None):
+    """config.yaml + data.csv of a simulated calibration; returns (config path, truth ParameterSet, values).
+    offsets: true joint offsets (rad) set after the random placement errors."""
     robot = load_example("ur5")
-    truth = truth_params(robot, rng, compliance, geometric)
+    truth = truth_params(robot, rng, compliance, geometric, offsets)
     values = random_configurations(robot, JOINTS, n, rng)
     if spread is not None:       # shrink some joints' ranges: weakly seen directions
         for k, s in spread.items():

@@ -27,7 +27,7 @@ def print_run(run: CalibrationRun, quiet: bool, warnings: list[str] = ()) -> int
     result = run.result
     for warning in [*warnings, *run.warnings]:
         print(f"robocal: {warning}", file=sys.stderr)
-    print(brief(result.summary()) if quiet else result.summary())
+    print(brief(result.summary(terminal=True)) if quiet else result.summary(terminal=True))
     if not quiet:
         for note in run.notes:
             print(f"robocal: {note}", file=sys.stderr)

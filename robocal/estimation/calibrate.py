@@ -22,6 +22,7 @@ from robocal.estimation.determinacy import classify
 from robocal.estimation.identifiability import covariance, select_base_parameters
 from robocal.estimation.physical_scale import (DETERMINED_ANGLE, DETERMINED_LENGTH,
                                                physical_scales)
+from robocal.estimation.findings import find
 from robocal.estimation.plausibility import check_fit, nominal_values
 from robocal.estimation.registration import DefaultPrior, apply_default_prior, data_rows, register_nominal
 from robocal.estimation.problem import Evaluation, Problem
@@ -101,7 +102,7 @@ def calibrate(problem: Problem, options: CalibrationOptions | None = None,
     # one factorisation of [J r] at the start serves the selection (its R block) and the first step
     start = triangle(ev0.J, ev0.r, None, len(requested), start_rows)
     first = select_base_parameters(start[:len(requested), :len(requested)], requested, opt.rank_rtol)
-    prior_only = [requested[j] for j in first.dependent if j in with_prior]
+    prior_only = [requested[j] for j in first.dependent if j in with_prior]     # kept only by their prior
     selection = _apply_selection(params, requested, None, opt.rank_rtol, first.keep_also(with_prior))
     kept = [requested.index(n) for n in params.free_names]          # the solver starts where ev0 was taken
     first_triangle = None
@@ -122,8 +123,10 @@ def calibrate(problem: Problem, options: CalibrationOptions | None = None,
             params[name].vary = True
         allowed = set(selection.independent) | set(hidden)
         ev_all = evaluate()
-        again = select_base_parameters(triangle(ev_all.J, ev_all.r, None, len(requested), start_rows)[:-1, :-1],
-                                       requested, opt.rank_rtol, allowed).keep_also(with_prior)
+        again_data = select_base_parameters(triangle(ev_all.J, ev_all.r, None, len(requested), start_rows)[:-1, :-1],
+                                            requested, opt.rank_rtol, allowed)
+        prior_only = [requested[j] for j in again_data.dependent if j in with_prior]
+        again = again_data.keep_also(with_prior)
         if again.independent == selection.independent:   # same set; explain it as seen at the solution
             selection = _apply_selection(params, requested, None, opt.rank_rtol, again)
             break
@@ -149,7 +152,9 @@ def calibrate(problem: Problem, options: CalibrationOptions | None = None,
     result = CalibrationResult(
         params=params, requested=requested, selection=selection, covariance=cov, before=before, after=after,
         solve=sol, dof=dof, sigma2=sigma2, condition=final_sel.condition, ill_conditioned=ill,
-        condition_limit=opt.condition_limit, n_rows=m, prior_only=prior_only)
+        condition_limit=opt.condition_limit, n_rows=m, prior_only=prior_only,
+        determined_thresholds=(opt.determined_length, opt.determined_angle))
+    result.weakest_direction = weakest_direction(Rw, params.free_names) if ill else []
     result.sessions = session_figures(problem)
     free = params.free_names
     data_rows_now = data_rows(problem, len(ev.r))
@@ -161,14 +166,33 @@ def calibrate(problem: Problem, options: CalibrationOptions | None = None,
         J_data = Rw if data_rows_now.all() else triangle(ev.J, ev.r, w, n, data_rows_now)[:n, :n]
     noise2 = sigma2 if np.isfinite(sigma2) else 1.0
     with_prior = {p.name for p in params if p.prior_sigma is not None}
-    result.determinacy = classify(free, J_data, noise2, scales.threshold(free), scales.of(free),
+    # what the data alone say: the parameters they can identify, the ones set by the prior held at their values
+    set_by_prior = set(prior_only)
+    data_names = [name for name in free if name not in set_by_prior]
+    cols = [free.index(name) for name in data_names]
+    result.determinacy = classify(data_names, J_data[:, cols], noise2, scales.threshold(data_names),
+                                  scales.of(data_names), [name for name in free if name in set_by_prior],
                                   [requested[j] for j in selection.dependent], with_prior)
+    for name in free:
+        params[name].stderr_data = result.determinacy.stderr[name]
     result.default_prior = default_prior
     result.registration = registered.names if registered is not None else []
     result.registration_values = dict(registered.values) if registered is not None else {}
     result.robot_size = scales.size
+    result.scales = scales
     result.refusals = check_fit(result, nominal, scales, opt.regularisation, opt.max_iterations)
+    # a finding needs a converged, well-conditioned fit (a parameter refusal elsewhere does not hide one)
+    result.findings = (find(params, nominal, scales, result.determinacy.stderr)
+                       if sol.success and not ill else [])
     return result
+
+
+def weakest_direction(R: np.ndarray, names: list[str]) -> list[str]:
+    """The parameters taking part in the weakest direction of the column-scaled R (an ill-conditioned fit)."""
+    norms = np.linalg.norm(R, axis=0)
+    _, _, Vt = np.linalg.svd(R / np.where(norms > 0, norms, 1.0), full_matrices=False)
+    v = np.abs(Vt[-1])
+    return [n for n, c in zip(names, v) if c > 0.1 * v.max()]
 
 
 def columns_triangle(T: np.ndarray, kept: list[int], ev: Evaluation, data_rows: np.ndarray) -> np.ndarray:
@@ -186,7 +210,7 @@ def _apply_selection(params, requested, J, rtol, selection=None):
     selection = selection or select_base_parameters(J, requested, rtol)
     for name in requested:
         p = params[name]
-        p.vary, p.identifiable, p.confounded_with, p.stderr = True, True, [], None
+        p.vary, p.identifiable, p.confounded_with, p.stderr, p.stderr_data = True, True, [], None, None
     for j in selection.dependent:
         p = params[requested[j]]
         p.vary, p.identifiable = False, False

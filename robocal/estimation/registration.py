@@ -38,24 +38,26 @@ class DefaultPrior:
     applied: bool
     strength: float | None = None    # prior sigma = strength x physical scale
     noise_ratio: float | None = None # measured noise / stated sigma (evidence estimate)
-    names: list[str] = field(default_factory=list)    # parameters that got the prior
-    loose: list[str] = field(default_factory=list)    # kept parameters the data alone leave beyond scale
+    names: list[str] = field(default_factory=list)    # parameters that got the prior (those without one of their own)
+    loose: list[str] = field(default_factory=list)    # of the kept ones, those the data alone leave beyond their
+                                                      # physical scale at the registered nominal model and the
+                                                      # stated sigmas: why it was applied
     reason: str = ""
     method: str = "evidence of the linearised Gaussian model"
 
     def to_dict(self) -> dict:
         return {"mode": self.mode, "applied": self.applied, "strength_in_physical_scales": self.strength,
-                "noise_over_stated_sigma": self.noise_ratio, "method": self.method, "parameters": self.names,
-                "loose_without_prior": self.loose, "reason": self.reason}
+                "noise_over_stated_sigma": self.noise_ratio, "method": self.method,
+                "parameters_given_prior": self.names, "loose_at_registered_nominal": self.loose, "reason": self.reason}
 
     def describe(self) -> str:
         if self.mode == "none":
             return "Default prior: none (solver.regularisation: none)."
         if not self.applied:
             return f"Default prior: not needed ({self.reason})."
-        return (f"Default prior: {len(self.names)} robot parameters, sigma = {self.strength:.3g} x physical scale "
-                f"(chosen by the {self.method}; measured noise {self.noise_ratio:.3g} x stated sigma); "
-                f"{self.reason}.")
+        return (f"Default prior: given to the {len(self.names)} robot parameters without a prior of their own, "
+                f"sigma = {self.strength:.3g} x physical scale (chosen by the {self.method}; measured noise "
+                f"{self.noise_ratio:.3g} x stated sigma); {self.reason}.")
 
 
 def data_rows(problem, n_rows: int) -> np.ndarray:
@@ -174,4 +176,5 @@ def apply_default_prior(problem, registered: Registered, scales, rtol: float,
     for n in names:
         params[n].prior_sigma, params[n].prior_mean = evd.strength * scales.scale[n], params[n].value
     return DefaultPrior("auto", True, evd.strength, noise, names, loose,
-                        reason=f"the data alone leave {len(loose)} of them beyond their physical scale")
+                        reason=f"applied because, at the registered nominal model and the stated sigmas, the data "
+                               f"alone leave {len(loose)} of them beyond their physical scale: {', '.join(loose)}")

@@ -9,11 +9,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from robocal.estimation.session_figures import session_lines
 from robocal.estimation.identifiability import BaseSelection
 from robocal.model.parameters import ParameterSet
+from robocal.estimation.result_text import (FINDING_RULE, identifiability_dict, identifiability_statements,
+                                            summary_text)
 from robocal.estimation.solve import SolveResult
 
+SHOWN = 6           # names shown per list on the terminal (summary.txt and result.json: all)
 UNIT_SCALE = {"length": (1e3, "mm"), "angle": (1e3, "mrad"), "pixel": (1.0, "px"), "prior": (1.0, "sigma")}
 
 
@@ -113,6 +115,10 @@ class CalibrationResult:
     registration_values: dict[str, float] = field(default_factory=dict)   # their values in the "before" model
     robot_size: float | None = None        # m, the length the physical scales are relative to
     refusals: list = field(default_factory=list)            # robocal.estimation.plausibility.Refusal
+    findings: list = field(default_factory=list)            # robocal.estimation.findings.Finding
+    scales: object | None = None           # robocal.estimation.physical_scale.PhysicalScales
+    determined_thresholds: tuple[float, float] = (1e-4, 1e-4)   # m, rad: solver.determined_length / _angle
+    weakest_direction: list[str] = field(default_factory=list)  # of an ill-conditioned fit
 
     @property
     def success(self) -> bool:
@@ -126,12 +132,9 @@ class CalibrationResult:
             return "ill-conditioned"
         return "implausible" if self.refusals else "converged"
 
-    def refusal_lines(self) -> list[str]:
+    def refusal_lines(self, limit: int | None = None) -> list[str]:
         """What went wrong and how to fix it, one pair per refusal (empty for an accepted fit)."""
-        lines = []
-        for k, r in enumerate(self.refusals, 1):
-            lines += [f"Refused ({k}): {r.problem}.", f"  Fix: {r.fix}."]
-        return lines
+        return [line for k, r in enumerate(self.refusals, 1) for line in r.lines(k, limit)]
 
     @property
     def unidentifiable(self) -> list[str]:
@@ -141,25 +144,8 @@ class CalibrationResult:
     def estimated(self) -> list[str]:
         return self.params.free_names
 
-    def identifiability_statements(self) -> list[str]:
-        lines = [f"{self.selection.rank} of {len(self.requested)} requested parameters can be determined "
-                 f"from these measurements."]
-        lines += [s + "; fixed at its initial value." for s in self.selection.describe()]
-        if self.prior_only:
-            lines.append("Determined by their priors only, not by the data: " + ", ".join(self.prior_only) + ".")
-        if self.default_prior is not None:
-            lines.append(self.default_prior.describe())
-        if self.determinacy is not None:
-            det = self.determinacy
-            counts = {c: len(det.names_in(c)) for c in ("determined", "weakly determined", "not determined")}
-            lines.append("At the measured noise, against 0.1 mm / 0.1 mrad (solver.determined_length / "
-                         "determined_angle) and the physical scales: " + ", ".join(f"{v} {k}" for k, v in counts.items())
-                         + ".")
-            lines += ["Weak direction: " + d.describe() + "." for d in det.directions]
-        if self.ill_conditioned:
-            lines.append(f"The fit is ill-conditioned: condition number {self.condition:.3g} exceeds "
-                         f"{self.condition_limit:.3g}; estimates along the weakest directions are unreliable.")
-        return lines
+    def identifiability_statements(self, limit: int | None = None) -> list[str]:
+        return identifiability_statements(self, limit)
 
     def registered_nominal(self, nominal):
         """A copy of the nominal ParameterSet with the registration frames at their "before" values: the
@@ -180,17 +166,11 @@ class CalibrationResult:
             "degrees_of_freedom": self.dof,
             "sigma_ratio": float(np.sqrt(self.sigma2)) if np.isfinite(self.sigma2) else None,
             "condition_number": self.condition,
-            "identifiability": {
-                "requested": len(self.requested),
-                "rank": self.selection.rank,
-                "unidentifiable": self.unidentifiable,
-                "prior_only": self.prior_only,
-                "statements": self.identifiability_statements(),
-                "rank_rtol": self.selection.rtol,
-            },
+            "identifiability": identifiability_dict(self),
             "refusals": [r.to_dict() for r in self.refusals],
+            "findings": [f.to_dict() for f in self.findings],
+            "finding_rule": FINDING_RULE,
             "default_prior": self.default_prior.to_dict() if self.default_prior is not None else None,
-            "determinacy": self.determinacy.to_dict() if self.determinacy is not None else None,
             "registration_before": {"parameters": self.registration, "values": self.registration_values,
                                     "meaning": "before = the nominal model with only these frames fitted"},
             "robot_size_m": self.robot_size,
@@ -206,29 +186,9 @@ class CalibrationResult:
         """Strict JSON: non-finite numbers (an infinite condition number, a missing standard error) are null."""
         return json.dumps(_finite(self.to_dict()), indent=2, default=_json_default, allow_nan=False)
 
-    def summary(self) -> str:
-        lines = self.refusal_lines() + ([""] if self.refusals else [])
-        lines += [f"Calibration {self.status}: {self.solve.message} after {self.solve.nit} iterations",
-                  f"{self.n_rows} residual rows, {len(self.params.free_names)} estimated parameters, "
-                  f"condition number {self.condition:.3g}, residual/sigma {np.sqrt(self.sigma2):.3f}", "",
-                  "Errors: RMS of the error norm (3D per point / orientation; |e| per row otherwise), max in "
-                  "brackets. Before = the nominal robot with only the registration frames fitted"
-                  + (f" ({', '.join(sorted({n.split('.')[0] for n in self.registration}))})" if self.registration
-                     else " (none float: the model as given)") + ".",
-                  f"{'block':<20}{'type':<14}{'rows':>6}   {'RMS before: |e| (max)':>30}   "
-                  f"{'RMS after: |e| (max)':>30}   {'after, per component':>22}"]
-        for b0, b1 in zip(self.before, self.after):
-            fmt = lambda d: ", ".join(f"{v:.4g} {k}" for k, v in d.items())
-            lines.append(f"{b0.name:<20}{b0.type_name:<14}{b0.rows:>6}   {b0.headline():>30}   "
-                         f"{b1.headline():>30}   {fmt(b1.rms):>22}")
-        lines += session_lines(self.sessions)
-        lines += ["", "Estimated parameters (SI units):"]
-        for name in self.params.free_names:
-            p = self.params[name]
-            se = f"{p.stderr:.3g}" if p.stderr is not None and np.isfinite(p.stderr) else "n/a"
-            lines.append(f"  {name:<32}{p.value:>+14.6g} {p.unit:<4} +- {se}")
-        lines += ["", "Identifiability:"] + [f"  {s}" for s in self.identifiability_statements()]
-        return "\n".join(lines)
+    def summary(self, terminal: bool = False) -> str:
+        """The text of summary.txt; terminal=True: long lists of names shown with their count."""
+        return summary_text(self, SHOWN if terminal else None)
 
 
 def _finite(o):

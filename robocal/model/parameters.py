@@ -52,14 +52,18 @@ class Parameter:
     unit: str = ""
     # follower of other parameters: value = sum(coefficient * leader value); its effect adds to their columns
     tied_to: dict[str, float] | None = None
-    # written by a fit
+    # written by a fit: standard error with the prior's contribution (if any), and from the data alone (the
+    # parameters set only by their prior held; inf: the data cannot tell it; robocal.estimation.determinacy)
     stderr: float | None = None
+    stderr_data: float | None = None
     identifiable: bool | None = None
     confounded_with: list[tuple[str, float]] = field(default_factory=list)
 
     def to_dict(self) -> dict:
         d = {"name": self.name, "kind": self.kind, "value": self.value, "unit": self.unit, "vary": self.vary,
              "stderr": self.stderr, "identifiable": self.identifiable}
+        if self.stderr_data is not None:
+            d["stderr_data_only"] = self.stderr_data
         if self.confounded_with:
             d["confounded_with"] = [[n, c] for n, c in self.confounded_with]
         if self.prior_sigma is not None:

@@ -105,7 +105,9 @@ def report_html(result: dict, scene: dict | None = None, meshes: bool = True, ti
     summary = [["status", result.get("status")], ["solver message", result.get("message")],
                ["iterations", result.get("iterations")], ["residual rows", result.get("rows")],
                ["degrees of freedom", result.get("degrees_of_freedom")],
-               ["parameters determined", f"{ident.get('rank')} of {ident.get('requested')} requested"],
+               ["identifiable from the data alone", f"{ident.get('identifiable_from_data')} of "
+                                                     f"{ident.get('requested')} requested"],
+               *[[f"class: {cls}", n] for cls, n in (ident.get("counts") or {}).items()],
                ["condition number", format_value(result.get("condition_number"), ".3g")],
                ["residual / stated sigma", format_value(result.get("sigma_ratio"), ".3f")]]
     if scene:
@@ -117,12 +119,15 @@ def report_html(result: dict, scene: dict | None = None, meshes: bool = True, ti
         blocks.append([b0["name"], b0["type"], b0["rows"], norm_of, fmt(b0.get("rms_norm")), fmt(b1.get("rms_norm")),
                        fmt(b0.get("max_norm")), fmt(b1.get("max_norm")), fmt(b1.get("rms_per_component"))])
     params = []
+    classes = ident.get("classes") or {}
     for p in result.get("parameters", []):
         k, unit = SHOWN.get(p.get("unit", ""), (1.0, p.get("unit", "")))
-        se = p.get("stderr")
-        state = "estimated" if p.get("vary") else ("not identifiable: fixed" if p.get("identifiable") is False else "fixed")
+        se, sd = p.get("stderr"), p.get("stderr_data_only")
+        state = classes.get(p["name"]) or ("estimated" if p.get("vary") else "fixed by the config")
         params.append([p["name"], unit, format_value(k * p["value"], "+.5g"),
-                       format_value(k * se, ".3g") if p.get("vary") and se is not None else "", state])
+                       format_value(k * se, ".3g") if p.get("vary") and se is not None else "",
+                       format_value(k * sd, ".3g") if p.get("vary") and sd is not None else
+                       ("n/a" if p.get("vary") else ""), state])
     parts = [f"<h1>{html.escape(title)}</h1>", *refusal_section(result),     # what went wrong first
              "<h2>Summary</h2>", html_table(["quantity", "value"], summary, "summary"),
              "<h2>Residuals (mm, mrad)</h2>",
@@ -134,7 +139,10 @@ def report_html(result: dict, scene: dict | None = None, meshes: bool = True, ti
              "<h2>Identifiability</h2>", "<ul class=\"identifiability\">"
              + "".join(f"<li>{html.escape(s)}</li>" for s in ident.get("statements", [])) + "</ul>",
              "<h2>Parameters (lengths in mm, angles in mrad)</h2>",
-             html_table(["parameter", "unit", "value", "standard error", "status"], params, "parameters")]
+             "<p>Standard error: the fit's, with the prior's contribution; data alone: without it (the "
+             "parameters set by the prior held; n/a: the data cannot tell it). Class: see Identifiability.</p>",
+             html_table(["parameter", "unit", "value", "standard error", "data alone", "class"], params,
+                        "parameters")]
     if iso9283:
         parts += iso9283_section(iso9283)
     for evaluation in result.get("evaluations") or []:      # robocal evaluate's files in the folder
