@@ -54,7 +54,7 @@ class Robot:
     """A robot model and the names robocal uses to talk about it.
 
     model        nominal Pinocchio model (kinematic tree; closures live in `loops`)
-    urdf_path    the file it came from (None when built in memory)
+    urdf_path    the file it came from (None when built in memory or read from MJCF: mjcf_path)
     urdf_text    the URDF source, kept for export
     package_dirs folders that resolve `package://` URIs (meshes are loaded only for viewing)
     loops        closed-chain description (robocal.model.loops.LoopSet) or None for a serial robot
@@ -69,6 +69,13 @@ class Robot:
     loops: object | None = None
     extra_frames: dict[str, tuple[str, pin.SE3]] = field(default_factory=dict)
     base_placement: pin.SE3 = field(default_factory=pin.SE3.Identity)  # measurement frame -> robot root
+    mjcf_path: Path | None = None    # the MJCF file it came from (robocal.model.mjcf), if any
+
+    @property
+    def source(self) -> str:
+        """The file the robot came from, or its name: what error messages about it say first."""
+        path = self.urdf_path or self.mjcf_path
+        return str(path) if path else (self.name or "robot")
 
     # ---- names -------------------------------------------------------------------------
     @property
