@@ -11,7 +11,12 @@ import pinocchio as pin
 import pytest
 
 import robocal
+from reference_evaluation import reference_evaluate
 from robocal.errors import AssemblyError, InputError
+from robocal.estimation.problem import Problem
+from robocal.model.parameters import ParameterSet, offset_parameter, placement_parameters
+from robocal.residuals import PoseResidual
+from robocal.systems.stewart.mechanism import StewartGeometry, inverse_kinematics_batch, random_workspace_poses
 from robocal.model.closure_groups import closure_groups, closure_state
 from robocal.model.loop_rows import closure_rows
 from robocal.model.loops import assemble
@@ -182,3 +187,29 @@ def test_a_loop_that_cannot_close_names_file_loop_and_sample():
     assert message.startswith(str(URDF / "stewart_6_6.urdf") + ": sample 17: closed-chain assembly")
     assert info.value.sample == 17 and info.value.constraint.startswith("leg")
     assert f"loop '{info.value.constraint}' is the furthest from closed" in message
+
+
+@pytest.mark.parametrize("components", [("tx", "ty"), ("tx", "ty", "tz", "rx", "ry", "rz"), ("rx",)])
+def test_batched_jacobian_of_point_closures_first_anchors(components):
+    """A point closure's first anchor (`<closure>.link1`) with any subset of its six components: the batched
+    path's parameter rows against the per-sample reference (it once indexed the components' axis wrongly, which
+    only translation triples survived). Rounding only: 1e-10 relative."""
+    def make():
+        rng = np.random.default_rng(0)
+        robot = robocal.load_urdf(URDF / "stewart_6_6.urdf")
+        params = ParameterSet()
+        for j in range(1, 7):
+            for p in placement_parameters("frame_placement", f"leg{j}_top.link1", components):
+                params.add(p)
+            params.add(offset_parameter(f"leg{j}_slide", "m"))
+        for p in params:
+            p.value = rng.normal(0, 1e-3)
+        geo, n = StewartGeometry.spec_6_6(), 6
+        R, p = random_workspace_poses(geo, n, rng)
+        quats = np.array([pin.Quaternion(pin.exp3(rng.normal(0, 0.3, 3))).coeffs() for _ in range(n)])
+        measured = np.hstack([rng.normal(0, 0.05, (n, 3)) + [0, 0, 0.4], quats])
+        return Problem(robot, params, robot.loops.actuated, inverse_kinematics_batch(geo, R, p),
+                       [PoseResidual("pose", "tool", np.arange(n), measured)])
+    batched, reference = make().evaluate(), reference_evaluate(make())
+    assert np.abs(batched.J - reference.J).max() < 1e-10 * np.abs(reference.J).max()
+    assert np.abs(reference.J).max() > 0.1

@@ -193,7 +193,8 @@ def parameter_rows(g: ClosureGroup, R: np.ndarray, p: np.ndarray, sides, frames,
         cols, F = frame
         if point and side == 0:      # D1 = [-I, [cp]x]
             cp = np.einsum("nkij,nkj->nki", R1t, (p2 - p1).reshape(n, k, 3))
-            values = cross(np.broadcast_to(cp[..., None], (n, k, 3, F.shape[-1])), F[:, 3:], axis=2) - F[:, :3]
+            # F (k, 6, f) gets a sample axis: cross works along the same axis 2 (the components) of both
+            values = cross(np.broadcast_to(cp[..., None], (n, k, 3, F.shape[-1])), F[None, :, 3:], axis=2) - F[:, :3]
         elif point:                  # D2 = [R12, 0]
             values = (R1t @ R2.reshape(n, k, 3, 3)) @ F[:, :3]
         else:

@@ -79,12 +79,12 @@ def constraint_anchors(cm, model: pin.Model, label: str, source: str):
 
 
 def joint_anchor_parent(robot, jid: int) -> str:
-    """A frame carried by joint `jid` to hang anchors on: its JOINT frame, else any frame on it (a model built in
-    Python may have none: one is added)."""
+    """A frame carried by joint `jid` to hang anchors on: its link (BODY frame, as a URDF closure names a link),
+    else its JOINT frame, else any frame on it; a model built in Python may have none: a joint frame is added."""
     model = robot.model
     on_joint = [k for k, f in enumerate(model.frames) if f.parentJoint == jid]
-    joint_frames = [k for k in on_joint if model.frames[k].type == pin.FrameType.JOINT]
-    for k in joint_frames + on_joint:
+    rank = {pin.FrameType.BODY: 0, pin.FrameType.JOINT: 1}
+    for k in sorted(on_joint, key=lambda k: rank.get(model.frames[k].type, 2)):
         name = model.frames[k].name
         if robot.frame_id(name) == k:      # reachable by its name (names can repeat across frame types)
             return name

@@ -295,7 +295,9 @@ def assembly_error(robot, loops: LoopSet, message: str, c: np.ndarray | None, sa
     constraint = None if (name is None or closed) else name
     text = f"{robot.source}: {message}"
     if constraint is not None:
-        text += f"; loop '{constraint}' is the furthest from closed ({error:.3g} m or rad)"
+        kind = next(c.kind for c in loops.closures if c.name == constraint)
+        text += (f"; loop '{constraint}' is the furthest from closed ({error:.3g} "
+                 f"{'m' if kind in ('point', 'distance') else 'm or rad'})")
     out = AssemblyError(text)
     out.source, out.sample, out.constraint = robot.source, sample, constraint
     return out
