@@ -6,8 +6,9 @@ constraint models (robocal.model.constraint_models). `LoopSet` stacks the closur
 frame closures from Pinocchio's constraint kinematics, the other kinds from robocal.model.loop_rows:
 robocal.model.pinocchio_rows) and the joint relations' rows (couplings, screw transmissions: one linear row
 each, robocal.model.joint_relations); `assemble` solves the passive joints for given actuated readings
-(closed-chain forward kinematics) with the damped Newton of robocal.model.inverse_kinematics
-(benchmarks/closed_chain_assembly.py compares it with a Pinocchio-style projection).
+(closed-chain forward kinematics): Pinocchio-style projected Gauss-Newton steps while they lower the error
+(robocal.model.projected_assembly, the faster at equal accuracy: benchmarks/closed_chain_assembly.py), the damped
+Newton of robocal.model.inverse_kinematics from the same start otherwise.
 Each closure k is anchored on two Pinocchio frames ``<name>.link1`` and ``<name>.link2`` added to
 ``robot.model``; moving a loop anchor is therefore a frame-placement edit.
 """
@@ -24,6 +25,7 @@ from robocal.model.inverse_kinematics import damped_newton
 from robocal.model.joint_relations import Coupling
 from robocal.model.loop_rows import Closure, closure_rows
 from robocal.model.pinocchio_rows import PinocchioRows
+from robocal.model.projected_assembly import projected_newton
 
 
 class JointSlot(NamedTuple):
@@ -279,10 +281,14 @@ def assemble(robot, model: pin.Model, actuated_values, q_guess=None, sample=None
         if cost < worst["cost"]:
             worst.update(cost=cost, c=c)
         return c, jac
+    label, what = (f"sample {sample}" if sample is not None else "the given input"), "closed-chain assembly"
+    retract = lambda q, v: pin.integrate(model, q, v)  # noqa: E731
     try:
-        return damped_newton(tracked, q0, lambda q, v: pin.integrate(model, q, v), free=loops.solved_v, tol=tol,
-                             max_iterations=max_iter, singular_rcond=singular_rcond, sample=sample,
-                             what="closed-chain assembly", failure=AssemblyError)
+        q = projected_newton(tracked, q0, retract, loops.solved_v, tol, max_iter, singular_rcond, label, what)
+        if q is not None:
+            return q
+        return damped_newton(tracked, q0, retract, free=loops.solved_v, tol=tol, max_iterations=max_iter,
+                             singular_rcond=singular_rcond, sample=sample, what=what, failure=AssemblyError)
     except AssemblyError as exc:
         raise assembly_error(robot, loops, str(exc), worst["c"], sample) from None
 
