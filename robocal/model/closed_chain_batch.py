@@ -8,8 +8,8 @@ closure_arrays gives the closure rows):
 - assembly: every sample takes the damped step of `damped_newton` (mu = |c|^2; the plain Newton step once mu
   is below 1e-20, where the two agree to rounding) from its warm start, moved by the first-order change of its
   solution when the previous Jacobian pass left its sensitivities (`_predicted`: after a parameter step, one
-  Newton step instead of two); a sample whose full step does not lower |c|^2 enough (where the per-sample solver would start halving), or that has
-  not converged in `max_iterations`, is handed to `assemble` itself from the same warm start, so the branch
+  Newton step instead of two); a sample whose full step does not lower |c|^2 enough (where the per-sample
+  solver would start halving), or that has not converged in `max_iterations`, is handed to `assemble` itself from the same warm start, so the branch
   reached and the errors raised are those of the per-sample path;
 - sensitivities: C_s dq_s = -C_theta dtheta with C_s = dc/dv on the solved coordinates, one inverse per
   sample (normal equations when there are more rows than unknowns: the least-squares solution lstsq gives);
