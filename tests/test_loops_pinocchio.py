@@ -213,3 +213,26 @@ def test_batched_jacobian_of_point_closures_first_anchors(components):
     batched, reference = make().evaluate(), reference_evaluate(make())
     assert np.abs(batched.J - reference.J).max() < 1e-10 * np.abs(reference.J).max()
     assert np.abs(reference.J).max() > 0.1
+
+
+def test_desired_offsets_of_constraint_models():
+    """A point anchor's desired offset is folded into its first anchor (the same residual, to rounding); a frame
+    anchor's is refused by name."""
+    model = pin.Model()
+    crank = model.addJoint(0, pin.JointModelRZ(), pin.SE3.Identity(), "crank")
+    finger = model.addJoint(crank, pin.JointModelRZ(), pin.SE3(np.eye(3), np.array([0, 0.06, 0])), "finger")
+    rocker = model.addJoint(0, pin.JointModelRZ(), pin.SE3(np.eye(3), np.array([0.02, 0, 0])), "rocker")
+    cm = pin.PointAnchorConstraintModel(model, finger, pin.SE3(np.eye(3), np.array([0.02, 0, 0])),
+                                        rocker, pin.SE3(np.eye(3), np.array([0, 0.06, 0])))
+    cm.desired_constraint_offset = np.array([0.01, -0.02, 0.003])
+    data, cd, q = model.createData(), cm.createData(), np.array([0.3, -0.2, 0.1])
+    pin.computeJointJacobians(model, data, q)
+    cm.calc(model, data, cd)
+    robot = robot_from_pinocchio(model, [cm], actuated=["crank"])
+    np.testing.assert_allclose(robot.loops.constraint_error(robot.model, robot.model.createData(), q),
+                               cd.constraint_position_error, atol=1e-15)
+    weld = pin.FrameAnchorConstraintModel(model, finger, pin.SE3.Identity(), rocker, pin.SE3.Identity())
+    weld.name = "w"
+    weld.desired_constraint_offset = np.full(6, 0.01)
+    with pytest.raises(InputError, match="constraint 'w' \\(#1\\) has a desired_constraint_offset"):
+        robot_from_pinocchio(model, [weld], actuated=["crank"])
