@@ -23,7 +23,8 @@ residual-and-Jacobian evaluation of one calibrate() run from the nominal model (
 N(0, 1 mm), noise-free poses), the first, cold pass included. Both paths fit the same data; the table gives the
 largest relative difference of their residuals and Jacobians. Issue 34's target: a step pass of at most 10 us per
 sample at 1000 samples (the last line says whether it is met, on CPU time).
---profile adds where one step pass of (b) spends its time (cProfile on CPU time, cumulative, us per sample).
+--profile adds where one step pass of (b) spends its time: CPU time per phase (timers around its methods) and
+cProfile's cumulative figures (on CPU time, its overhead included), us per sample.
 """
 from __future__ import annotations
 
@@ -211,6 +212,57 @@ def profile_step(robot, n: int) -> list[tuple[str, float]]:
     return [(label, found.get(label, 0.0) / n * 1e6) for label in PHASES.values()]
 
 
+TIMED = (("ClosedChainBatch", "__init__", "batched assembly and sensitivities"),
+         ("ClosedChainBatch", "_state", "  closure evaluations (FK, rows, C_s)"),
+         ("TreeArrays", "placements", "    tree placements"),
+         ("TreeArrays", "motion_columns", "    joint-motion columns"),
+         ("ClosedChainBatch", "_step", "  Newton steps"),
+         ("ClosedChainBatch", "_solver", "  C_s^-1 and its regularity bound"),
+         ("ClosedChainBatch", "_parameter_rows", "  C_theta (closure rows per parameter)"),
+         ("ClosedChainBatch", "_predicted", "  predicted starts"),
+         ("ClosedChainBatch", "frame", "frame poses and Jacobians"),
+         ("Problem", "evaluate", "Problem.evaluate, all"))
+
+
+def phases(robot, n: int, repeats: int) -> list[tuple[str, float]]:
+    """CPU time (us per sample) of the main phases of a batched step pass: process_time around each method (the
+    timers' own cost included; best of `repeats` passes)."""
+    import robocal.model.closed_chain_batch as batch_module
+    import robocal.model.tree_arrays as tree_module
+    owners = {"ClosedChainBatch": batch_module.ClosedChainBatch, "TreeArrays": tree_module.TreeArrays,
+              "Problem": Problem}
+    spent: dict = {}
+    originals = []
+    for owner, name, label in TIMED:
+        cls = owners[owner]
+        original = getattr(cls, name)
+        originals.append((cls, name, original))
+
+        def timed(*args, _original=original, _label=label, **kwargs):
+            t0 = time.process_time()
+            try:
+                return _original(*args, **kwargs)
+            finally:
+                spent[_label] = spent.get(_label, 0.0) + time.process_time() - t0
+        setattr(cls, name, timed)
+    try:
+        problem, _ = stewart_problem(robot, n)
+        x0, rng, best = problem.params.free_values(), np.random.default_rng(1), {}
+        for _ in range(repeats):
+            problem.params.set_free_values(x0)
+            problem.evaluate()
+            problem.params.set_free_values(x0 + rng.normal(0.0, 1e-5, len(x0)))
+            spent.clear()
+            gc.collect()
+            problem.evaluate()
+            for label, t in spent.items():
+                best[label] = min(best.get(label, np.inf), t)
+    finally:
+        for cls, name, original in originals:
+            setattr(cls, name, original)
+    return [(label, best.get(label, 0.0) / n * 1e6) for _, _, label in TIMED]
+
+
 def relative(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.abs(a - b).max() / np.abs(b).max())
 
@@ -259,11 +311,16 @@ def main():
     print(f"(b) vs (a), step pass: residuals {relative(b.r, a.r):.1e}, Jacobian {relative(b.J, a.J):.1e} relative; "
           f"Pinocchio's rows vs the batched path's: {agreement:.1e}")
     best = min(now["step_cpu"], rows[1][2])
+    ratio = then["calibrate_cpu"] / now["calibrate_cpu"]
     print(f"today -> this tree (CPU, best of {args.pairs} alternating pairs): step {then['step_cpu']:.1f} -> "
           f"{now['step_cpu']:.1f} us/sample ({then['step_cpu'] / now['step_cpu']:.2f}x), calibrate "
-          f"{then['calibrate_cpu']:.1f} -> {now['calibrate_cpu']:.1f} ({then['calibrate_cpu'] / now['calibrate_cpu']:.2f}x)"
-          f"; target step pass <= 10 us/sample: {'met' if best <= 10.0 else 'not met'} ({best:.1f})")
+          f"{then['calibrate_cpu']:.1f} -> {now['calibrate_cpu']:.1f} ({ratio:.2f}x); "
+          f"target step pass <= 10 us/sample: {'met' if best <= 10.0 else 'not met'} ({best:.1f})")
     if args.profile:
+        print("\n(b) one step pass, CPU time per phase (process_time around each method, best of --repeats), "
+              "us/sample:")
+        for label, us in phases(robot, n, args.repeats):
+            print(f"  {label:<48}{us:>8.1f}")
         print("\n(b) one step pass under cProfile (its overhead included), cumulative us/sample of CPU time:")
         for label, us in profile_step(robot, n):
             print(f"  {label:<48}{us:>8.1f}")

@@ -27,8 +27,7 @@ the readings 1 mm away on every strut (every later pass, and a trajectory).
 
 Equal accuracy is not yet the same answer: a second table sweeps the crank of the MJCF four-bar of
 examples/closed_loops/fourbar.xml over its range from the neutral (drawn) start, cold each time, and counts the
-readings each method assembles on the drawn branch (the one a warm-started sweep follows). Times are the best of --repeats,
-microseconds per sample, one thread.
+readings each method assembles on the drawn branch (the one a warm-started sweep follows).
 """
 from __future__ import annotations
 
@@ -163,7 +162,8 @@ def main():
             rows = lambda q: loops.constraint_jacobian(model, data, q)  # noqa: E731
             retract = lambda q, v: pin.integrate(model, q, v)  # noqa: E731
             out["d"] = [damped_newton(rows, loops.set_actuated(g, s), retract, free=passive, tol=TOL,
-                                      singular_rcond=1e-5, what="closed-chain assembly") for g, s in zip(guesses, struts)]
+                                      singular_rcond=1e-5, what="closed-chain assembly")
+                        for g, s in zip(guesses, struts)]
 
         def run_a():
             out["a"] = [assemble(robot, model, s, q_guess=g, data=data) for g, s in zip(guesses, struts)]

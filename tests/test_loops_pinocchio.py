@@ -54,7 +54,7 @@ def robocal_rows(loops, model, q):
     data = model.createData()
     pin.computeJointJacobians(model, data, q)
     pin.updateFramePlacements(model, data)
-    c, jac, start = [], [], 0
+    c, jac = [], []
     for closure in loops.closures:
         i1, i2 = model.getFrameId(closure.frame1), model.getFrameId(closure.frame2)
         ck, d1, d2 = closure_rows(closure, data.oMf[i1], data.oMf[i2])

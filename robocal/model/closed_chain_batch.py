@@ -9,8 +9,8 @@ closure_arrays gives the closure rows):
   is below 1e-20, where the two agree to rounding) from its warm start, moved by the first-order change of its
   solution when the previous Jacobian pass left its sensitivities (`_predicted`: after a parameter step, one
   Newton step instead of two); a sample whose full step does not lower |c|^2 enough (where the per-sample
-  solver would start halving), or that has not converged in `max_iterations`, is handed to `assemble` itself from the same warm start, so the branch
-  reached and the errors raised are those of the per-sample path;
+  solver would start halving), or that has not converged in `max_iterations`, is handed to `assemble` itself
+  from the same warm start, so the branch reached and the errors raised are those of the per-sample path;
 - sensitivities: C_s dq_s = -C_theta dtheta with C_s = dc/dv on the solved coordinates, one inverse per
   sample (normal equations when there are more rows than unknowns: the least-squares solution lstsq gives);
 - a 6-UPS C_s (each point closure owning two coordinates plus the shared platform's) is eliminated leg by leg

@@ -59,9 +59,10 @@ def constraint_anchors(cm, model: pin.Model, label: str, source: str):
     else:
         kind = KIND_OF.get(cls)
     if kind is None:
-        raise InputError(f"constraint {label} is a {cls}{' of type ' + str(cm.type) if cls == 'RigidConstraintModel' else ''}; "
-                         "robocal reads point and frame anchors (PointAnchorConstraintModel, FrameAnchorConstraintModel, "
-                         "RigidConstraintModel CONTACT_3D / CONTACT_6D)", source=source, field=label)
+        what = f"{cls} of type {cm.type}" if cls == "RigidConstraintModel" else cls
+        raise InputError(f"constraint {label} is a {what}; robocal reads point and frame anchors "
+                         "(PointAnchorConstraintModel, FrameAnchorConstraintModel, RigidConstraintModel CONTACT_3D / "
+                         "CONTACT_6D)", source=source, field=label)
     for side in (1, 2):
         jid = int(getattr(cm, f"joint{side}_id"))
         if not 0 <= jid < model.njoints:

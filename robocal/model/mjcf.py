@@ -31,7 +31,6 @@ from robocal.model.robot import Robot
 from robocal.model.urdf_check import c_stderr_captured
 
 CLOSURE_TAGS = {"connect": "point", "weld": "frame"}
-SIDES = {"connect": (("body1", "body2"), ("site1", "site2")), "weld": (("body1", "body2"), ("site1", "site2"))}
 
 
 def _parse(path: Path):
