@@ -236,3 +236,17 @@ def test_desired_offsets_of_constraint_models():
     weld.desired_constraint_offset = np.full(6, 0.01)
     with pytest.raises(InputError, match="constraint 'w' \\(#1\\) has a desired_constraint_offset"):
         robot_from_pinocchio(model, [weld], actuated=["crank"])
+
+
+def test_urdf_loops_as_pinocchio_constraint_models_round_trip():
+    """robot.constraint_models() gives the URDF closures as Pinocchio constraint models; handed back with the
+    model, they make the same robot (the anchor frames already there are reused)."""
+    robot = robocal.load_urdf(URDF / "stewart_6_6.urdf")
+    models = robot.constraint_models()
+    assert [cm.name for cm in models] == [c.name for c in robot.loops.closures]
+    assert {type(cm.extract()).__name__ for cm in models} == {"PointAnchorConstraintModel"}
+    again = robot_from_pinocchio(robot.model, models, actuated=robot.loops.actuated)
+    assert again.model.nframes == robot.model.nframes
+    q = assemble(robot, robot.model, [0.01] * 6)
+    np.testing.assert_allclose(again.loops.constraint_error(again.model, again.model.createData(), q),
+                               robot.loops.constraint_error(robot.model, robot.model.createData(), q), atol=1e-15)

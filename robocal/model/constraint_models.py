@@ -45,6 +45,7 @@ def pinocchio_constraints(model: pin.Model, closures: list[Closure]) -> pin.StdV
         cm = cls(model, f1.parentJoint, f1.placement, f2.parentJoint, f2.placement)
         cm.name = closure.name
         out.append(cm)
+        out[len(out) - 1].name = closure.name      # the generic wrapper keeps a name of its own
     return out
 
 
@@ -101,7 +102,7 @@ def add_constraint_closures(robot, constraint_models, names=None, source: str = 
     each, for error messages."""
     closures, seen = [], set()
     for k, cm in enumerate(constraint_models):
-        own = getattr(cm.extract() if isinstance(cm, pin.ConstraintModel) else cm, "name", "")
+        own = getattr(cm, "name", "") or (cm.extract().name if isinstance(cm, pin.ConstraintModel) else "")
         name = (names[k] if names is not None else None) or own or f"constraint{k + 1}"
         label = f"'{name}' (#{k + 1})"
         row = lines[k] if lines is not None else None
@@ -116,9 +117,15 @@ def add_constraint_closures(robot, constraint_models, names=None, source: str = 
             M1, M2 = pin.SE3(np.eye(3), M1.translation), pin.SE3(np.eye(3), M2.translation)
         frames = []
         for side, jid, M in ((1, j1, M1), (2, j2, M2)):
+            frames.append(f"{name}.link{side}")
+            if robot.model.existFrame(frames[-1]):    # a model that already has them (robot.constraint_models())
+                f = robot.model.frames[robot.frame_id(frames[-1])]
+                if f.parentJoint != jid or not f.placement.isApprox(M, 1e-12):
+                    raise InputError(f"constraint {label}: the model already has a frame '{frames[-1]}' elsewhere",
+                                     source=source, row=row, field=frames[-1])
+                continue
             parent = joint_anchor_parent(robot, jid)
             relative = robot.model.frames[robot.frame_id(parent)].placement.actInv(M)
-            frames.append(f"{name}.link{side}")
             robot.add_frame(frames[-1], parent=parent, placement=relative)
         closures.append(Closure(name, kind, frames[0], frames[1], ROWS[kind]))
     return closures

@@ -17,6 +17,7 @@ import pinocchio as pin
 from lxml import etree
 
 from robocal.errors import FrameNotFound, InputError
+from robocal.model.constraint_models import pinocchio_constraints
 from robocal.model.urdf_check import c_stderr_captured, check_urdf_elements
 from robocal.model.loops_urdf import read_loops
 
@@ -190,6 +191,15 @@ class Robot:
         revolute = np.linalg.norm(S[3:]) > 0.5
         axis = S[3:] if revolute else S[:3]
         return axis / np.linalg.norm(axis), bool(revolute)
+
+    # ---- loops as Pinocchio sees them ----------------------------------------------------
+    def constraint_models(self, model: pin.Model | None = None) -> pin.StdVec_ConstraintModel:
+        """Pinocchio constraint models of the point and frame closures (PointAnchor / FrameAnchor, named after
+        them), anchored as their frames are in `model` (default robot.model; a calibrated copy gives the calibrated
+        anchors). The distance and revolute kinds have none in Pinocchio 4.1 (docs/closed_loops.md)."""
+        if self.loops is None:
+            return pin.StdVec_ConstraintModel()
+        return pinocchio_constraints(self.model if model is None else model, self.loops.closures)
 
     # ---- configurations ----------------------------------------------------------------
     def neutral(self) -> np.ndarray:
