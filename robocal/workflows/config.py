@@ -24,6 +24,7 @@ from robocal.workflows.config_measurements import residual_class, residual_from_
 from robocal.workflows.config_sections import (apply_parameter_overrides, approach_directions, joint_values,
                                         parameters_from_config, solver_options)
 from robocal.io.tables import ANGLE_UNITS, LENGTH_UNITS, Table, read_csv
+from robocal.model.mjcf import load_mjcf
 from robocal.model.robot import Robot, load_example, load_urdf
 
 __all__ = ["Setup", "Cfg", "TOP_KEYS", "load_config", "read_yaml", "read_checked_config", "setup_from_config", "robot_from_config",
@@ -61,7 +62,8 @@ def load_config(path: str | Path, urdf: str | Path | None = None) -> Setup:
     path = Path(path).resolve()
     raw = read_yaml(path)
     if urdf is not None and isinstance(raw, dict):
-        robot_cfg = {k: v for k, v in (raw.get("robot") or {}).items() if k not in ("urdf", "example")}
+        robot_cfg = {k: v for k, v in (raw.get("robot") or {}).items()
+                     if k not in ("urdf", "example", "mjcf", "actuated")}
         raw = {**raw, "robot": {**robot_cfg, "urdf": str(Path(urdf).resolve())}}
     return setup_from_config(raw, path.parent, str(path))
 
@@ -214,11 +216,17 @@ def joint_columns(data: Cfg, robot: Robot, frames: Sequence[str]) -> dict[str, s
 def robot_from_config(cfg: Cfg, base_dir: Path) -> Robot:
     """The robot of the `robot:` section, with its base placement and added frames."""
     if cfg.value is None:
-        raise cfg.error("required section is missing (give robot.urdf or robot.example)")
+        raise cfg.error("required section is missing (give robot.urdf, robot.mjcf or robot.example)")
     cfg.require_mapping()
-    if ("urdf" in cfg.value) == ("example" in cfg.value):
-        raise cfg.error("give exactly one of 'urdf' (a file) or 'example' (a robot name)")
-    if "urdf" in cfg.value:
+    if sum(key in cfg.value for key in ("urdf", "example", "mjcf")) != 1:
+        raise cfg.error("give exactly one of 'urdf' (a file), 'mjcf' (a file) or 'example' (a robot name)")
+    if "actuated" in cfg.value and "mjcf" not in cfg.value:
+        raise cfg.error("'actuated' goes with 'mjcf' (a URDF names its actuated joints in <actuated>)", "actuated")
+    if "mjcf" in cfg.value:
+        actuated = cfg.get("actuated", types=list)
+        robot = load_mjcf(base_dir / cfg.get("mjcf", types=str),
+                          actuated=None if actuated is None else [str(j) for j in actuated])
+    elif "urdf" in cfg.value:
         dirs = [str((base_dir / str(d)).resolve()) for d in cfg.get("package_dirs", [], types=list)]
         robot = load_urdf(base_dir / cfg.get("urdf", types=str), package_dirs=dirs)
     else:
