@@ -1,32 +1,42 @@
 """Closed chains: microseconds per sample per residual-and-Jacobian pass, Stewart 6-6 through its URDF loop constraints.
 
 Run:  OMP_NUM_THREADS=1 python benchmarks/closed_chain.py [--samples 1000] [--repeats 3] [--profile]
+      [--baseline COMMIT] [--pairs 3]
 (from a worktree other than the installed checkout, with PYTHONPATH=. so that this tree's robocal is measured)
 
-Prints one table, every figure measured in this process, one thread:
-  (a) the per-sample path (robocal.model.kinematics.SampleState: damped Newton assembly and implicit-function
-      derivatives sample by sample, what Problem.evaluate ran for closed chains before the batched path);
-  (b) the batched path (robocal.model.closed_chain_batch, what Problem.evaluate runs now);
+Prints one table, every figure measured in this run, one thread:
+  (a) the per-sample path (robocal.model.kinematics.SampleState: assembly and implicit-function derivatives
+      sample by sample, what Problem.evaluate ran for closed chains before the batched path);
+  (b) the batched path (robocal.model.closed_chain_batch, what Problem.evaluate runs now), this tree;
+  (b0) the same batched pass of robocal at --baseline (default 2aa0703: before issue 34, "today's figure"),
+      extracted with `git archive` and measured in a subprocess alternately with (b) in a subprocess of its own,
+      --pairs times (best of each: the shared cores' other jobs make single runs noisy);
   (c) the floor: Pinocchio 4.1's constraint models for the same machine (six PointAnchorConstraintModel:
-      computeJointJacobians, calc, getConstraintsJacobian) plus the tool frame's placement and Jacobian, called
-      per sample from Python: one evaluation of the closure rows and their Jacobian. A per-sample Newton
-      assembly needs at least two of these a pass (three after a typical step), before any parameter Jacobian.
+      computeJointJacobians, calc, getConstraintsJacobian; robocal.model.pinocchio_rows) plus the tool frame's
+      placement and Jacobian, called per sample from Python: one evaluation of the closure rows and their Jacobian.
+      A per-sample Newton assembly needs at least two of these a pass, before any parameter Jacobian.
 Each timed phase starts from a collected heap (gc.collect): the per-sample path leaves ~10^5 objects whose
 collection otherwise lands in the batched path's first passes (measured: 43.5 against 38.4 us a step pass).
 Passes: "step" = Problem.evaluate() after a parameter step of 10 um per parameter from assembled warm starts
 (best of --repeats, wall clock and CPU time of this process); "calibrate" = the mean over every
 residual-and-Jacobian evaluation of one calibrate() run from the nominal model (42 parameters, true machine
 N(0, 1 mm), noise-free poses), the first, cold pass included. Both paths fit the same data; the table gives the
-largest relative difference of their residuals and Jacobians.
---profile adds where one step pass of (b) spends its time (cProfile, cumulative, us per sample).
+largest relative difference of their residuals and Jacobians. Issue 34's target: a step pass of at most 10 us per
+sample at 1000 samples (the last line says whether it is met, on CPU time).
+--profile adds where one step pass of (b) spends its time: CPU time per phase (timers around its methods) and
+cProfile's cumulative figures (on CPU time, its overhead included), us per sample.
 """
 from __future__ import annotations
 
 import argparse
 import cProfile
 import gc
+import json
 import os
 import pstats
+import subprocess
+import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -39,9 +49,13 @@ import robocal  # noqa: E402
 import robocal.estimation.problem as problem_module  # noqa: E402
 from robocal.estimation.calibrate import calibrate  # noqa: E402
 from robocal.estimation.problem import Problem  # noqa: E402
+from robocal.model.closure_groups import closure_groups, closure_state  # noqa: E402
+from robocal.model.tree_arrays import TreeArrays  # noqa: E402
 from robocal.systems.stewart import calibration as sc, modes as sm  # noqa: E402
 
-URDF = Path(__file__).resolve().parents[1] / "urdf" / "stewart_6_6.urdf"
+ROOT = Path(__file__).resolve().parents[1]
+URDF = ROOT / "urdf" / "stewart_6_6.urdf"
+BASELINE = "2aa0703"        # the commit issue 34 started from
 TOOL = sm.Tool(0.2, 0.003)
 BATCHED = problem_module.supports_closed_batch
 
@@ -85,44 +99,35 @@ def step_pass(problem: Problem, repeats: int):
 
 
 def calibrate_passes(problem: Problem):
-    """(mean seconds per residual-and-Jacobian evaluation, their number, the fitted free values) of one
-    calibrate() run (its residual-only evaluations are left out)."""
-    times = []
+    """(mean seconds per residual-and-Jacobian evaluation, their number, the fitted free values, mean CPU seconds)
+    of one calibrate() run (its residual-only evaluations are left out)."""
+    times, cpu = [], []
     evaluate = problem.evaluate
 
     def timed(jacobian: bool = True):
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         out = evaluate(jacobian)
         if jacobian:
             times.append(time.perf_counter() - t0)
+            cpu.append(time.process_time() - c0)
         return out
     problem.evaluate = timed
     gc.collect()
     calibrate(problem)
-    return float(np.mean(times)), len(times), problem.params.free_values()
+    return float(np.mean(times)), len(times), problem.params.free_values(), float(np.mean(cpu))
 
 
 def pinocchio_floor(robot, q: np.ndarray, repeats: int) -> tuple[float, float]:
-    """(best seconds per sample, max |difference| from robocal's rows) of one constraint evaluation per sample
-    with Pinocchio's constraint models, plus the tool frame's placement and LOCAL Jacobian."""
+    """(best seconds per sample, max |difference| from the batched path's rows) of one constraint evaluation per
+    sample with Pinocchio's constraint models (robocal.model.pinocchio_rows), plus the tool frame's placement and
+    LOCAL Jacobian."""
     model, loops = robot.model, robot.loops
     data = model.createData()
-    models = pin.StdVec_ConstraintModel()
-    for c in loops.closures:
-        f1, f2 = (model.frames[model.getFrameId(name)] for name in (c.frame1, c.frame2))
-        models.append(pin.PointAnchorConstraintModel(model, f1.parentJoint, f1.placement, f2.parentJoint,
-                                                     f2.placement))
-    datas = pin.StdVec_ConstraintData()
-    for cm in models:
-        datas.append(cm.createData())
+    rows = loops.pinocchio_rows(model)
     tool, local = robot.frame_id("tool"), pin.ReferenceFrame.LOCAL
 
     def evaluate(qi):
-        pin.computeJointJacobians(model, data, qi)
-        for cm, cd in zip(models, datas):
-            cm.calc(model, data, cd)
-        c = np.concatenate([cd.extract().constraint_position_error for cd in datas])
-        jac = pin.getConstraintsJacobian(model, data, models, datas)
+        c, jac = rows.rows_and_jacobian(model, data, qi)
         pin.updateFramePlacement(model, data, tool)
         return c, jac, pin.getFrameJacobian(model, data, tool, local)
 
@@ -132,12 +137,50 @@ def pinocchio_floor(robot, q: np.ndarray, repeats: int) -> tuple[float, float]:
         for qi in q:
             evaluate(qi)
         best = min(best, (time.perf_counter() - t0) / len(q))
+    tree = TreeArrays(model)
+    state = closure_state(tree, closure_groups(model, loops, tree), loops.n_rows, loops.solved_v, q[:50])
     worst = 0.0
-    for qi in q[:50]:
+    for i, qi in enumerate(q[:50]):
         c, jac, _ = evaluate(qi)
-        c_ref, jac_ref = loops.constraint_jacobian(model, model.createData(), qi)
-        worst = max(worst, np.abs(c - c_ref).max(), np.abs(jac - jac_ref).max())
+        worst = max(worst, np.abs(c - state["c"][i]).max(), np.abs(jac[:, loops.solved_v] - state["Cs"][i]).max())
     return best, worst
+
+
+def measure(n: int, repeats: int) -> dict:
+    """The batched step and calibrate passes of the robocal on the path (this tree or a baseline's)."""
+    robot = robocal.load_urdf(URDF)
+    problem, _ = stewart_problem(robot, n)
+    wall, cpu, _ = step_pass(problem, repeats)
+    problem, truth = stewart_problem(robot, n)
+    fit, count, fitted, fit_cpu = calibrate_passes(problem)
+    return {"robocal": robocal.__file__, "step": wall / n * 1e6, "step_cpu": cpu / n * 1e6,
+            "calibrate": fit / n * 1e6, "calibrate_cpu": fit_cpu / n * 1e6, "passes": count,
+            "error": float(np.abs(fitted - truth).max())}
+
+
+def measured_in(tree: Path, n: int, repeats: int) -> dict:
+    """`measure` run by this script in a subprocess whose robocal is the one in `tree`."""
+    env = dict(os.environ, PYTHONPATH=str(tree), OMP_NUM_THREADS="1")
+    out = subprocess.run([sys.executable, str(Path(__file__).resolve()), "--measure", "--samples", str(n),
+                          "--repeats", str(repeats)], env=env, check=True, capture_output=True, text=True).stdout
+    return json.loads(out.strip().splitlines()[-1])
+
+
+def today_and_now(commit: str, n: int, repeats: int, pairs: int) -> tuple[dict, dict]:
+    """Best figures of the baseline commit's batched pass and of this tree's, measured alternately."""
+    with tempfile.TemporaryDirectory() as tmp:
+        archive = subprocess.run(["git", "-C", str(ROOT), "archive", commit], check=True, capture_output=True).stdout
+        subprocess.run(["tar", "-x", "-C", tmp], input=archive, check=True)
+        runs = {"then": [], "now": []}
+        for _ in range(pairs):
+            runs["then"].append(measured_in(Path(tmp), n, repeats))
+            runs["now"].append(measured_in(ROOT, n, repeats))
+    best = {}
+    for key, results in runs.items():
+        best[key] = {k: (min(r[k] for r in results) if isinstance(results[0][k], float) else results[0][k])
+                     for k in results[0]}
+        assert Path(best[key]["robocal"]).parents[1] == (Path(tmp) if key == "then" else ROOT), best[key]["robocal"]
+    return best["then"], best["now"]
 
 
 PHASES = {("closed_chain_batch.py", "__init__"): "whole batched assembly and sensitivities",
@@ -158,7 +201,7 @@ def profile_step(robot, n: int) -> list[tuple[str, float]]:
     problem.evaluate()
     problem.params.set_free_values(x0 + np.random.default_rng(1).normal(0.0, 1e-5, len(x0)))
     gc.collect()
-    profiler = cProfile.Profile()
+    profiler = cProfile.Profile(time.process_time)     # CPU time: the shared cores' other jobs left out
     profiler.runcall(problem.evaluate)
     stats = pstats.Stats(profiler).stats
     found = {}
@@ -167,6 +210,57 @@ def profile_step(robot, n: int) -> list[tuple[str, float]]:
         if key in PHASES:
             found[PHASES[key]] = found.get(PHASES[key], 0.0) + cumulative
     return [(label, found.get(label, 0.0) / n * 1e6) for label in PHASES.values()]
+
+
+TIMED = (("ClosedChainBatch", "__init__", "batched assembly and sensitivities"),
+         ("ClosedChainBatch", "_state", "  closure evaluations (FK, rows, C_s)"),
+         ("TreeArrays", "placements", "    tree placements"),
+         ("TreeArrays", "motion_columns", "    joint-motion columns"),
+         ("ClosedChainBatch", "_step", "  Newton steps"),
+         ("ClosedChainBatch", "_solver", "  C_s^-1 and its regularity bound"),
+         ("ClosedChainBatch", "_parameter_rows", "  C_theta (closure rows per parameter)"),
+         ("ClosedChainBatch", "_predicted", "  predicted starts"),
+         ("ClosedChainBatch", "frame", "frame poses and Jacobians"),
+         ("Problem", "evaluate", "Problem.evaluate, all"))
+
+
+def phases(robot, n: int, repeats: int) -> list[tuple[str, float]]:
+    """CPU time (us per sample) of the main phases of a batched step pass: process_time around each method (the
+    timers' own cost included; best of `repeats` passes)."""
+    import robocal.model.closed_chain_batch as batch_module
+    import robocal.model.tree_arrays as tree_module
+    owners = {"ClosedChainBatch": batch_module.ClosedChainBatch, "TreeArrays": tree_module.TreeArrays,
+              "Problem": Problem}
+    spent: dict = {}
+    originals = []
+    for owner, name, label in TIMED:
+        cls = owners[owner]
+        original = getattr(cls, name)
+        originals.append((cls, name, original))
+
+        def timed(*args, _original=original, _label=label, **kwargs):
+            t0 = time.process_time()
+            try:
+                return _original(*args, **kwargs)
+            finally:
+                spent[_label] = spent.get(_label, 0.0) + time.process_time() - t0
+        setattr(cls, name, timed)
+    try:
+        problem, _ = stewart_problem(robot, n)
+        x0, rng, best = problem.params.free_values(), np.random.default_rng(1), {}
+        for _ in range(repeats):
+            problem.params.set_free_values(x0)
+            problem.evaluate()
+            problem.params.set_free_values(x0 + rng.normal(0.0, 1e-5, len(x0)))
+            spent.clear()
+            gc.collect()
+            problem.evaluate()
+            for label, t in spent.items():
+                best[label] = min(best.get(label, np.inf), t)
+    finally:
+        for cls, name, original in originals:
+            setattr(cls, name, original)
+    return [(label, best.get(label, 0.0) / n * 1e6) for _, _, label in TIMED]
 
 
 def relative(a: np.ndarray, b: np.ndarray) -> float:
@@ -178,8 +272,15 @@ def main():
     parser.add_argument("--samples", type=int, default=1000)
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--profile", action="store_true", help="where one batched step pass spends its time")
+    parser.add_argument("--baseline", default=BASELINE, help="commit whose batched pass is today's figure")
+    parser.add_argument("--pairs", type=int, default=3, help="alternate baseline / this-tree runs")
+    parser.add_argument("--measure", action="store_true", help=argparse.SUPPRESS)   # the subprocesses' entry
     args = parser.parse_args()
     n = args.samples
+    if args.measure:
+        print(json.dumps(measure(n, args.repeats)))
+        return
+    then, now = today_and_now(args.baseline, n, args.repeats, args.pairs)
     robot = robocal.load_urdf(URDF)
     rows, evaluations = [], {}
     for label, batched in (("(a) per-sample path", False), ("(b) batched path", True)):
@@ -187,26 +288,40 @@ def main():
         problem, truth = stewart_problem(robot, n)
         t_step, cpu_step, evaluations[batched] = step_pass(problem, args.repeats)
         problem, truth = stewart_problem(robot, n)
-        t_fit, count, fitted = calibrate_passes(problem)
-        rows.append((label, t_step / n * 1e6, cpu_step / n * 1e6, t_fit / n * 1e6, count,
+        t_fit, count, fitted, cpu_fit = calibrate_passes(problem)
+        rows.append((label, t_step / n * 1e6, cpu_step / n * 1e6, t_fit / n * 1e6, cpu_fit / n * 1e6, count,
                      np.abs(fitted - truth).max()))
+    for label, r in ((f"(b0) batched path at {args.baseline} (today)", then),
+                     ("(b) batched path, this tree, subprocess", now)):
+        rows.append((label, r["step"], r["step_cpu"], r["calibrate"], r["calibrate_cpu"], r["passes"], r["error"]))
     use_batched(True)
     q = np.array(list(problem.warm_starts.values()))
     t_floor, agreement = pinocchio_floor(robot, q, args.repeats)
     a, b = evaluations[False], evaluations[True]
     print(f"Closed chain: Stewart 6-6 ({URDF.name}, 6 point closures, 18 rows), 42 parameters, pose residuals, "
           f"{n} samples, pin {pin.__version__}, OMP_NUM_THREADS={os.environ.get('OMP_NUM_THREADS')}")
-    print(f"{'path':<46}{'step pass':>12}{'(CPU)':>8}{'calibrate pass':>16}{'passes':>8}{'max param error':>17}")
-    print(f"{'':<46}{'us/sample':>12}{'':>8}{'us/sample':>16}{'':>8}{'m':>17}")
-    for label, step, cpu, fit, count, err in rows:
-        print(f"{label:<46}{step:>12.1f}{cpu:>8.1f}{fit:>16.1f}{count:>8d}{err:>17.2e}")
+    print(f"{'path':<46}{'step pass':>12}{'(CPU)':>8}{'calibrate pass':>16}{'(CPU)':>8}{'passes':>8}"
+          f"{'max param error':>17}")
+    print(f"{'':<46}{'us/sample':>12}{'':>8}{'us/sample':>16}{'':>8}{'':>8}{'m':>17}")
+    for label, step, cpu, fit, fit_cpu, count, err in rows:
+        print(f"{label:<46}{step:>12.1f}{cpu:>8.1f}{fit:>16.1f}{fit_cpu:>8.1f}{count:>8d}{err:>17.2e}")
     print(f"{'(c) floor: Pinocchio constraint models + FK':<46}{t_floor * 1e6:>12.1f}   (one evaluation)")
     print(f"speed-up (a)/(b): step {rows[0][1] / rows[1][1]:.1f}x, calibrate {rows[0][3] / rows[1][3]:.1f}x; "
           f"(b) / floor: step {rows[1][1] / (t_floor * 1e6):.1f}x")
     print(f"(b) vs (a), step pass: residuals {relative(b.r, a.r):.1e}, Jacobian {relative(b.J, a.J):.1e} relative; "
-          f"floor rows vs robocal's: {agreement:.1e}")
+          f"Pinocchio's rows vs the batched path's: {agreement:.1e}")
+    best = min(now["step_cpu"], rows[1][2])
+    ratio = then["calibrate_cpu"] / now["calibrate_cpu"]
+    print(f"today -> this tree (CPU, best of {args.pairs} alternating pairs): step {then['step_cpu']:.1f} -> "
+          f"{now['step_cpu']:.1f} us/sample ({then['step_cpu'] / now['step_cpu']:.2f}x), calibrate "
+          f"{then['calibrate_cpu']:.1f} -> {now['calibrate_cpu']:.1f} ({ratio:.2f}x); "
+          f"target step pass <= 10 us/sample: {'met' if best <= 10.0 else 'not met'} ({best:.1f})")
     if args.profile:
-        print("\n(b) one step pass under cProfile (its overhead included), cumulative us/sample:")
+        print("\n(b) one step pass, CPU time per phase (process_time around each method, best of --repeats), "
+              "us/sample:")
+        for label, us in phases(robot, n, args.repeats):
+            print(f"  {label:<48}{us:>8.1f}")
+        print("\n(b) one step pass under cProfile (its overhead included), cumulative us/sample of CPU time:")
         for label, us in profile_step(robot, n):
             print(f"  {label:<48}{us:>8.1f}")
 

@@ -1,4 +1,4 @@
-"""robocal: calibrate robot models (serial arms and parallel machines) described by URDF.
+"""robocal: calibrate robot models (serial arms and parallel machines) described by URDF, MJCF or Pinocchio.
 
 The names users call; docs/api.md lists them with the subpackages they come from.
 """
@@ -12,10 +12,12 @@ from robocal.workflows.setup import Setup, load_config
 from robocal.workflows.outputs import write_results
 from robocal.model.urdf_export import export_urdf
 from robocal.model.parameters import Parameter, ParameterSet, robot_parameters
+from robocal.model.mjcf import load_mjcf
+from robocal.model.pinocchio_robot import robot_from_pinocchio
 from robocal.model.robot import Robot, load_example, load_urdf
 from robocal.residuals import REGISTRY, Residual
 
-__all__ = ["Robot", "load_urdf", "load_example", "Parameter", "ParameterSet", "robot_parameters", "Setup",
+__all__ = ["Robot", "load_urdf", "load_example", "load_mjcf", "robot_from_pinocchio", "Parameter", "ParameterSet", "robot_parameters", "Setup",
            "load_config", "Problem", "CalibrationOptions", "calibrate", "CalibrationResult", "evaluate_result",
            "write_results", "export_urdf", "perturb", "random_configurations", "simulate_measurements", "Residual",
            "REGISTRY", "RobocalError", "InputError"]

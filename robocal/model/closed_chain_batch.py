@@ -5,11 +5,12 @@ robocal.model.loops.assemble and differentiates through the closures one sample 
 formulas run on whole arrays over the samples (robocal.model.tree_arrays walks the tree, robocal.model.
 closure_arrays gives the closure rows):
 
-- assembly: every sample takes the damped step of `damped_newton` (mu = |c|^2) from its warm start (the plain
-  Newton step once mu is below 1e-20, where the two agree to rounding); a sample
-  whose full step does not lower |c|^2 enough (where the per-sample solver would start halving), or that has
-  not converged in `max_iterations`, is handed to `assemble` itself from the same warm start, so the branch
-  reached and the errors raised are those of the per-sample path;
+- assembly: every sample takes the damped step of `damped_newton` (mu = |c|^2; the plain Newton step once mu
+  is below 1e-20, where the two agree to rounding) from its warm start, moved by the first-order change of its
+  solution when the previous Jacobian pass left its sensitivities (`_predicted`: after a parameter step, one
+  Newton step instead of two); a sample whose full step does not lower |c|^2 enough (where the per-sample
+  solver would start halving), or that has not converged in `max_iterations`, is handed to `assemble` itself
+  from the same warm start, so the branch reached and the errors raised are those of the per-sample path;
 - sensitivities: C_s dq_s = -C_theta dtheta with C_s = dc/dv on the solved coordinates, one inverse per
   sample (normal equations when there are more rows than unknowns: the least-squares solution lstsq gives);
 - a 6-UPS C_s (each point closure owning two coordinates plus the shared platform's) is eliminated leg by leg
@@ -39,6 +40,7 @@ CHUNK = 256              # samples per block: work arrays this size stay in cach
 ARMIJO = 1e-4            # damped_newton's sufficient decrease: a full step below it goes to the per-sample solver
 SINGULAR_RCOND = 1e-5    # assemble's default: smallest / largest singular value of C_s at the solution
 NEGLIGIBLE_DAMPING = 1e-20   # |c|^2 below which the damped step is the Newton step to rounding
+MAX_PREDICTION = 0.1     # m or rad: a larger first-order move of a warm start is not taken (_predicted)
 
 
 def supports_closed_batch(ms) -> bool:
@@ -91,12 +93,13 @@ class ClosedChainBatch:
         self.group_frames = [[self._frame_columns(fids) for fids in g.frames] for g in self.groups]
         neutral = pin.neutral(self.model)
         guesses = np.array([warm_starts.get(i, neutral) for i in self.samples], dtype=float).reshape(n, self.model.nq)
+        starts = self._predicted(cache.get("previous"), guesses, warm_starts, tol)
         # per block of CHUNK samples: joint placements R, p, solved-coordinate columns W, C_s^-1, C_theta (kept
         # per block: one array for all samples, allocated up front, makes every temporary fault in fresh pages)
         self.blocks, solutions = [], []
         for start in range(0, n, CHUNK):
             block = slice(start, min(start + CHUNK, n))
-            q, st = self._assemble(block, guesses[block], tol, max_iterations)
+            q, st = self._assemble(block, guesses[block], starts[block], tol, max_iterations)
             solver = self._solver(st["Cs"], self.samples[block])     # the per-sample path's check, always
             self.blocks.append({"R": st["R"], "p": st["p"], "W": st["W"], "solver": solver,
                                 "C_theta": self._parameter_rows(st) if jacobian else None})
@@ -104,6 +107,33 @@ class ClosedChainBatch:
         self.q = np.concatenate(solutions) if solutions else guesses
         rows = list(self.q.copy())     # handed out as warm starts: never written to again
         warm_starts.update(zip(self.samples.tolist(), rows))
+        if jacobian:      # the next pass predicts its starts from these sensitivities (_predicted)
+            cache["previous"] = {"x": ms.params.free_values(), "n_free": ms.n_free, "ccols": self.ccols,
+                                 "samples": self.samples, "rows": rows,
+                                 "blocks": [(b["solver"], b["C_theta"]) for b in self.blocks]}
+
+    def _predicted(self, previous: dict | None, guesses: np.ndarray, warm_starts: dict, tol: float) -> np.ndarray:
+        """Where to start each sample's Newton: its warm start moved by the first-order change of the solution,
+        dq_s = -C_s^-1 C_theta dtheta, with the previous Jacobian pass's C_s^-1 and C_theta (which it kept). Only
+        for samples whose warm start is still that pass's solution, and moves below MAX_PREDICTION: the error left is
+        second order in dtheta, so a parameter step needs one Newton step instead of two. Where the closures move
+        by less than sqrt(tol), one quadratic step from the warm start reaches tol anyway: the plain
+        start is kept (and the assembly's rounding with it). The per-sample fallback starts from the warm start."""
+        ms = self.ms
+        if (previous is None or previous["n_free"] != ms.n_free or not np.array_equal(previous["ccols"], self.ccols)
+                or not np.array_equal(previous["samples"], self.samples)):
+            return guesses
+        dx = (ms.params.free_values() - previous["x"])[self.ccols]
+        same = np.array([warm_starts.get(i) is r for i, r in zip(self.samples.tolist(), previous["rows"])], dtype=bool)
+        if not dx.any() or not same.any():
+            return guesses
+        dc = [C_theta @ dx for _, C_theta in previous["blocks"]]        # first-order change of the closures
+        dq = np.concatenate([-np.einsum("nsm,nm->ns", solver, d) for (solver, _), d in zip(previous["blocks"], dc)])
+        small = np.abs(np.concatenate(dc)).max(axis=1) < np.sqrt(tol)     # one Newton step from the start will do
+        dq[~same | small | (np.abs(dq).max(axis=1) > MAX_PREDICTION)] = 0.0
+        v = np.zeros((self.n, self.model.nv))
+        v[:, self.solved] = dq
+        return self.tree.integrate(guesses, v)
 
     def _take(self, key: str, samples: np.ndarray, joint=None) -> np.ndarray:
         """The per-sample array `key` at the samples (and one joint of it), gathered from the blocks."""
@@ -135,10 +165,11 @@ class ClosedChainBatch:
                 q[:, j.idx_q], q[:, j.idx_q + 1] = np.cos(actuated[:, k]), np.sin(actuated[:, k])
         return q
 
-    def _assemble(self, block: slice, guesses: np.ndarray, tol: float, max_iterations: int):
-        """(q, closure state) of the samples `block`: damped Newton steps on all of them at once."""
+    def _assemble(self, block: slice, guesses: np.ndarray, starts: np.ndarray, tol: float, max_iterations: int):
+        """(q, closure state) of the samples `block`: damped Newton steps on all of them at once, from `starts` (the
+        warm starts `guesses`, or their first-order prediction)."""
         actuated = self.actuated[block]
-        q = self._set_actuated(guesses, actuated)
+        q = self._set_actuated(starts, actuated)
         n = len(q)
         state = None
         moving, failed = np.ones(n, dtype=bool), np.zeros(n, dtype=bool)

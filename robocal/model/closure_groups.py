@@ -172,10 +172,17 @@ def parameter_rows(g: ClosureGroup, R: np.ndarray, p: np.ndarray, sides, frames,
     out = np.zeros((n, k, r, nc))
 
     def scatter(anchors, columns, values):
-        for i, (kk, cc) in enumerate(zip(anchors, columns)):
-            real = cc < nc                   # padding columns carry zeros: dropped
-            view = out[:, kk]
-            view[..., cc[real]] += values[:, i][..., real]
+        """out[:, anchor, :, column] += values (n, P, r, c) for every pair's real columns, in one indexed add
+        (anchor by anchor it cost more than the rows themselves); np.add.at where a target repeats (ties)."""
+        columns = np.asarray(columns)
+        real = columns < nc                   # padding columns carry zeros: dropped
+        K = np.broadcast_to(np.asarray(anchors)[:, None], columns.shape)[real]
+        C = columns[real]
+        V = values.transpose(1, 3, 0, 2)[real]            # (pairs' real columns, n, r)
+        if len(np.unique(K * (nc + 1) + C)) == len(K):
+            out[:, K, :, C] += V
+        else:
+            np.add.at(out, (slice(None), K, slice(None), C), np.moveaxis(V, 0, 1))
 
     for side, (pk, cols, U) in enumerate(sides):
         if pk is None:
@@ -193,7 +200,8 @@ def parameter_rows(g: ClosureGroup, R: np.ndarray, p: np.ndarray, sides, frames,
         cols, F = frame
         if point and side == 0:      # D1 = [-I, [cp]x]
             cp = np.einsum("nkij,nkj->nki", R1t, (p2 - p1).reshape(n, k, 3))
-            values = cross(np.broadcast_to(cp[..., None], (n, k, 3, F.shape[-1])), F[:, 3:], axis=2) - F[:, :3]
+            # F (k, 6, f) gets a sample axis: cross works along the same axis 2 (the components) of both
+            values = cross(np.broadcast_to(cp[..., None], (n, k, 3, F.shape[-1])), F[None, :, 3:], axis=2) - F[:, :3]
         elif point:                  # D2 = [R12, 0]
             values = (R1t @ R2.reshape(n, k, 3, 3)) @ F[:, :3]
         else:

@@ -68,7 +68,7 @@ def damped_newton(rows: Callable, x0: np.ndarray, retract: Callable, free=None, 
         err = float(np.max(np.abs(r))) if r.size else 0.0
         if err < tol:
             if singular_rcond is not None:
-                _check_regular(a, singular_rcond, label, what)
+                check_regular(a, singular_rcond, label, what)
             log.debug("%s converged in %d iterations (|r| = %.2e)", what, it, err)
             return x
         if it == max_iterations:
@@ -104,7 +104,8 @@ def damped_step(a: np.ndarray, r: np.ndarray, mu: float) -> np.ndarray:
     return x if info == 0 else -np.linalg.lstsq(a, r, rcond=None)[0]
 
 
-def _check_regular(a: np.ndarray, rcond: float, label: str, what: str) -> None:
+def check_regular(a: np.ndarray, rcond: float, label: str, what: str) -> None:
+    """Raise AssemblyError when the smallest / largest singular value of `a` is below rcond."""
     s = np.linalg.svd(a, compute_uv=False)
     if s.size and s[min(a.shape) - 1] < rcond * max(s[0], 1e-300):
         raise AssemblyError(

@@ -1,10 +1,14 @@
 """A closed chain's loops: the closures, the actuated/passive split, and assembly.
 
-A closed chain is its URDF spanning tree (loaded by Pinocchio) plus closure elements that URDF readers
-ignore (read by robocal.model.loops_urdf). `LoopSet` stacks the closures' constraint rows
-(robocal.model.loop_rows) and the joint relations' rows (couplings, screw transmissions: one linear row
+A closed chain is its spanning tree (loaded by Pinocchio) plus closures: read from robocal's URDF loop
+elements (robocal.model.loops_urdf), from MJCF equality constraints (robocal.model.mjcf) or from Pinocchio
+constraint models (robocal.model.constraint_models). `LoopSet` stacks the closures' constraint rows (point and
+frame closures from Pinocchio's constraint kinematics, the other kinds from robocal.model.loop_rows:
+robocal.model.pinocchio_rows) and the joint relations' rows (couplings, screw transmissions: one linear row
 each, robocal.model.joint_relations); `assemble` solves the passive joints for given actuated readings
-(closed-chain forward kinematics) with the damped Newton of robocal.model.inverse_kinematics.
+(closed-chain forward kinematics): Pinocchio-style projected Gauss-Newton steps while they lower the error
+(robocal.model.projected_assembly, the faster at equal accuracy: benchmarks/closed_chain_assembly.py), the damped
+Newton of robocal.model.inverse_kinematics from the same start otherwise.
 Each closure k is anchored on two Pinocchio frames ``<name>.link1`` and ``<name>.link2`` added to
 ``robot.model``; moving a loop anchor is therefore a frame-placement edit.
 """
@@ -20,6 +24,8 @@ from robocal.errors import AssemblyError, InputError
 from robocal.model.inverse_kinematics import damped_newton
 from robocal.model.joint_relations import Coupling
 from robocal.model.loop_rows import Closure, closure_rows
+from robocal.model.pinocchio_rows import PinocchioRows
+from robocal.model.projected_assembly import projected_newton
 
 
 class JointSlot(NamedTuple):
@@ -55,18 +61,11 @@ class LoopSet:
         self.n_relation_rows = len(self.relations)
         self.nv = model.nv
         self.n_rows = int(sum(c.rows for c in self.closures))
-        self._ids = [(model.getFrameId(c.frame1), model.getFrameId(c.frame2)) for c in self.closures]
         self._slices = []
         start = 0
         for c in self.closures:
             self._slices.append(slice(start, start + c.rows))
             start += c.rows
-        points = [k for k, c in enumerate(self.closures) if c.kind == "point"]
-        self._other = [k for k, c in enumerate(self.closures) if c.kind != "point"]
-        self._point_ids1 = [self._ids[k][0] for k in points]
-        self._point_ids2 = [self._ids[k][1] for k in points]
-        self._point_rows = np.array([r for k in points for r in range(self._slices[k].start, self._slices[k].stop)],
-                                    dtype=int)
         names = [model.names[j] for j in range(1, model.njoints) if model.joints[j].nv > 0]
         self.passive = [n for n in names if n not in self.actuated]
         # index slots, not Pinocchio JointModels: those do not pickle, and a robot must (Dask workers)
@@ -182,43 +181,64 @@ class LoopSet:
             D2.append(d2)
         return c, D1, D2
 
-    def constraint_jacobian(self, model: pin.Model, data: pin.Data, q: np.ndarray):
-        """c (n_rows,) and dc/dv (n_rows, model.nv) at q, for q <- integrate(q, v).
+    def pinocchio_rows(self, model: pin.Model) -> PinocchioRows:
+        """The closure rows of `model` (robot.model or a calibrated copy) through Pinocchio's constraint models,
+        built on first use and kept for the last model asked about: anchor frames edited in place afterwards are
+        not seen (robocal edits copies: ModelState)."""
+        cached = self.__dict__.get("_pinocchio_rows")
+        if cached is None or cached.model is not model:
+            cached = self.__dict__["_pinocchio_rows"] = PinocchioRows(model, self.closures, self._slices, self.n_rows)
+        return cached
 
-        Runs computeJointJacobians and updateFramePlacements on `data`.
+    def __getstate__(self):     # Pinocchio's constraint models do not pickle (Dask workers): rebuilt on use
+        state = dict(self.__dict__)
+        state.pop("_pinocchio_rows", None)
+        return state
+
+    def constraint_jacobian(self, model: pin.Model, data: pin.Data, q: np.ndarray):
+        """c (n_rows,) and dc/dv (n_rows, model.nv) at q, for q <- integrate(q, v): point and frame closures from
+        Pinocchio's constraint models (robocal.model.pinocchio_rows), the other kinds from robocal's rows.
+
+        Runs computeJointJacobians on `data`.
         """
-        pin.computeJointJacobians(model, data, q)
-        pin.updateFramePlacements(model, data)
-        c = np.empty(self.n_rows)
-        jac = np.empty((self.n_rows, model.nv))
-        local = pin.ReferenceFrame.LOCAL
-        oMf = data.oMf
-        if self._point_rows.size:  # point closures (the common case) in one batch:
-            # rows = [-I, [c]x] J1 + [R12, 0] J2, numpy calls shared by all of them
-            h1 = np.array([oMf[i].homogeneous for i in self._point_ids1])
-            h2 = np.array([oMf[i].homogeneous for i in self._point_ids2])
-            j1 = np.array([pin.getFrameJacobian(model, data, i, local) for i in self._point_ids1])
-            j2 = np.array([pin.getFrameJacobian(model, data, i, local) for i in self._point_ids2])
-            r1t = np.swapaxes(h1[:, :3, :3], 1, 2)
-            cp = r1t @ (h2[:, :3, 3:] - h1[:, :3, 3:])  # (k, 3, 1)
-            w = j1[:, 3:]
-            x, y, z = cp[:, 0], cp[:, 1], cp[:, 2]
-            cross = np.stack([y * w[:, 2] - z * w[:, 1], z * w[:, 0] - x * w[:, 2], x * w[:, 1] - y * w[:, 0]], 1)
-            c[self._point_rows] = cp.reshape(-1)
-            jac[self._point_rows] = (cross - j1[:, :3] + (r1t @ h2[:, :3, :3]) @ j2[:, :3]).reshape(-1, model.nv)
-        for k in self._other:
-            closure, sl, (i1, i2) = self.closures[k], self._slices[k], self._ids[k]
-            ck, d1, d2 = closure_rows(closure, oMf[i1], oMf[i2])
-            c[sl] = ck
-            jac[sl] = (d1 @ pin.getFrameJacobian(model, data, i1, local).reshape(6, -1)
-                       + d2 @ pin.getFrameJacobian(model, data, i2, local).reshape(6, -1))
-        return c, jac
+        return self.pinocchio_rows(model).rows_and_jacobian(model, data, q)
 
     def constraint_error(self, model: pin.Model, data: pin.Data, q: np.ndarray) -> np.ndarray:
         """c (n_rows,) at q (forward kinematics only, no Jacobians)."""
-        pin.framesForwardKinematics(model, data, q)
-        return self.closure_error([data.oMf[i] for i, _ in self._ids],
-                                  [data.oMf[i] for _, i in self._ids])[0]
+        return self.pinocchio_rows(model).rows_only(model, data, q)
+
+    def worst_closure(self, c: np.ndarray) -> tuple[str, float]:
+        """(name, max |row|) of the closure whose rows are furthest from closed in the closure vector c."""
+        errors = [float(np.abs(c[sl]).max()) if sl.stop > sl.start else 0.0 for sl in self._slices]
+        k = int(np.argmax(errors))
+        return self.closures[k].name, errors[k]
+
+
+def loop_set(robot, closures: list[Closure], actuated: list[str], relations: list, source: str) -> LoopSet:
+    """The LoopSet of a robot's closures and relations, its actuated joints checked (1-dof joints of the model,
+    listed once, required with closures) and its rows counted against the passive degrees of freedom."""
+    model = robot.model
+    if closures and not actuated:
+        raise InputError("a closed chain needs its actuated joints (the joints read by encoders)", source=source,
+                         field="actuated")
+    for n in actuated:
+        if not model.existJointName(n):
+            raise InputError(f"actuated joint '{n}' is not a joint of the model", source=source, field="actuated")
+        if model.joints[model.getJointId(n)].nv != 1:
+            raise InputError(f"actuated joint '{n}' must have one degree of freedom", source=source,
+                             field="actuated")
+    if len(set(actuated)) != len(actuated):
+        raise InputError("an actuated joint is listed twice", source=source, field="actuated")
+    try:
+        loops = LoopSet(model, closures, actuated, relations)
+    except InputError as exc:
+        raise InputError(exc.reason, source=source, field=exc.field) from None
+    n_rows = loops.n_rows + loops.n_relation_rows
+    if closures and n_rows < loops.solved_v.size:
+        raise InputError(f"the closures and joint relations give {n_rows} constraint rows for "
+                         f"{loops.solved_v.size} passive degrees of freedom: the actuated readings do not "
+                         "determine the mechanism", source=source, field="actuated")
+    return loops
 
 
 def _loops_of(robot):
@@ -253,8 +273,37 @@ def assemble(robot, model: pin.Model, actuated_values, q_guess=None, sample=None
             c, jac = loops.constraint_jacobian(model, data, q)
             cr, jr = loops.relation_rows(q, values)
             return np.concatenate([c, cr]), np.vstack([jac, jr])
-    return damped_newton(rows, q0, lambda q, v: pin.integrate(model, q, v), free=loops.solved_v, tol=tol,
-                         max_iterations=max_iter, singular_rcond=singular_rcond, sample=sample,
-                         what="closed-chain assembly", failure=AssemblyError)
+    worst = {"cost": np.inf, "c": None}
+
+    def tracked(q):       # the closest the Newton came: which loop would not close, for the error message
+        c, jac = rows(q)
+        cost = float(c @ c)
+        if cost < worst["cost"]:
+            worst.update(cost=cost, c=c)
+        return c, jac
+    label, what = (f"sample {sample}" if sample is not None else "the given input"), "closed-chain assembly"
+    retract = lambda q, v: pin.integrate(model, q, v)  # noqa: E731
+    try:
+        q = projected_newton(tracked, q0, retract, loops.solved_v, tol, max_iter, singular_rcond, label, what)
+        if q is not None:
+            return q
+        return damped_newton(tracked, q0, retract, free=loops.solved_v, tol=tol, max_iterations=max_iter,
+                             singular_rcond=singular_rcond, sample=sample, what=what, failure=AssemblyError)
+    except AssemblyError as exc:
+        raise assembly_error(robot, loops, str(exc), worst["c"], sample) from None
 
 
+def assembly_error(robot, loops: LoopSet, message: str, c: np.ndarray | None, sample) -> AssemblyError:
+    """An AssemblyError naming the robot's file, the sample and (when a loop is left open) the loop furthest from
+    closed at the best configuration reached; its attributes source, sample, constraint say the same."""
+    name, error = loops.worst_closure(c[:loops.n_rows]) if c is not None and loops.n_rows else (None, 0.0)
+    closed = "reached a singular configuration" in message      # the loops closed; the passive joints are free
+    constraint = None if (name is None or closed) else name
+    text = f"{robot.source}: {message}"
+    if constraint is not None:
+        kind = next(c.kind for c in loops.closures if c.name == constraint)
+        text += (f"; loop '{constraint}' is the furthest from closed ({error:.3g} "
+                 f"{'m' if kind in ('point', 'distance') else 'm or rad'})")
+    out = AssemblyError(text)
+    out.source, out.sample, out.constraint = robot.source, sample, constraint
+    return out

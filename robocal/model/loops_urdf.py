@@ -35,7 +35,7 @@ import pinocchio as pin
 from robocal.errors import InputError
 from robocal.model.joint_relations import Coupling, ScrewTransmission
 from robocal.model.loop_rows import ROWS, Closure
-from robocal.model.loops import LoopSet
+from robocal.model.loops import loop_set
 
 log = logging.getLogger(__name__)
 
@@ -217,15 +217,7 @@ def read_loops(robot, tree):
         followers = {r.successor_joint for r in relations if r.kind == "coupling"}
         actuated = [robot.model.names[j] for j in range(1, robot.model.njoints)
                     if robot.model.joints[j].nv == 1 and robot.model.names[j] not in followers]
-    try:
-        loops = LoopSet(robot.model, closures, actuated, relations)
-    except InputError as exc:
-        raise InputError(exc.reason, source=source, field=exc.field) from None
-    n_rows = loops.n_rows + loops.n_relation_rows
-    if closures and n_rows < loops.solved_v.size:
-        raise InputError(f"the closures and joint relations give {n_rows} constraint rows for "
-                         f"{loops.solved_v.size} passive degrees of freedom: the actuated readings do not "
-                         "determine the mechanism", source=source, field="actuated")
+    loops = loop_set(robot, closures, actuated, relations, source)
     log.info("read %d closures (%d rows), %d actuated joints, %d joint relations", len(closures), loops.n_rows,
              len(loops.actuated), len(relations))
     return loops

@@ -17,6 +17,7 @@ import pinocchio as pin
 from lxml import etree
 
 from robocal.errors import FrameNotFound, InputError
+from robocal.model.constraint_models import pinocchio_constraints
 from robocal.model.urdf_check import c_stderr_captured, check_urdf_elements
 from robocal.model.urdf_tree import check_urdf_tree
 from robocal.model.loops_urdf import read_loops
@@ -55,7 +56,7 @@ class Robot:
     """A robot model and the names robocal uses to talk about it.
 
     model        nominal Pinocchio model (kinematic tree; closures live in `loops`)
-    urdf_path    the file it came from (None when built in memory)
+    urdf_path    the file it came from (None when built in memory or read from MJCF: mjcf_path)
     urdf_text    the URDF source, kept for export
     package_dirs folders that resolve `package://` URIs (meshes are loaded only for viewing)
     loops        closed-chain description (robocal.model.loops.LoopSet) or None for a serial robot
@@ -70,6 +71,13 @@ class Robot:
     loops: object | None = None
     extra_frames: dict[str, tuple[str, pin.SE3]] = field(default_factory=dict)
     base_placement: pin.SE3 = field(default_factory=pin.SE3.Identity)  # measurement frame -> robot root
+    mjcf_path: Path | None = None    # the MJCF file it came from (robocal.model.mjcf), if any
+
+    @property
+    def source(self) -> str:
+        """The file the robot came from, or its name: what error messages about it say first."""
+        path = self.urdf_path or self.mjcf_path
+        return str(path) if path else (self.name or "robot")
 
     # ---- names -------------------------------------------------------------------------
     @property
@@ -184,6 +192,15 @@ class Robot:
         revolute = np.linalg.norm(S[3:]) > 0.5
         axis = S[3:] if revolute else S[:3]
         return axis / np.linalg.norm(axis), bool(revolute)
+
+    # ---- loops as Pinocchio sees them ----------------------------------------------------
+    def constraint_models(self, model: pin.Model | None = None) -> pin.StdVec_ConstraintModel:
+        """Pinocchio constraint models of the point and frame closures (PointAnchor / FrameAnchor, named after
+        them), anchored as their frames are in `model` (default robot.model; a calibrated copy gives the calibrated
+        anchors). The distance and revolute kinds have none in Pinocchio 4.1 (docs/closed_loops.md)."""
+        if self.loops is None:
+            return pin.StdVec_ConstraintModel()
+        return pinocchio_constraints(self.model if model is None else model, self.loops.closures)
 
     # ---- configurations ----------------------------------------------------------------
     def neutral(self) -> np.ndarray:

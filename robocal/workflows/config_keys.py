@@ -26,7 +26,8 @@ UNITS = {"length": None, "angle": None}
 SIGMA = {"position": None, "orientation": None}
 
 SCHEMA: dict = {
-    "robot": {"urdf": None, "example": None, "package_dirs": None, "base": PLACEMENT, "frames": [FRAME]},
+    "robot": {"urdf": None, "example": None, "mjcf": None, "actuated": None, "package_dirs": None, "base": PLACEMENT,
+              "frames": [FRAME]},
     "data": {"csv": None, "joints": FREE, "units": UNITS, "joint_units": UNITS,
              "sessions": [{"name": None, "csv": None}], "session_column": None,
              "approach": {"from": None, "sort_by": None, "threshold": UNITS, "initial": FREE, "columns": FREE}},

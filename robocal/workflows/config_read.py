@@ -66,20 +66,23 @@ def with_parameters(config: CalibrationConfig, overrides: dict) -> CalibrationCo
 
 def robot_config(cfg: Cfg, base_dir: Path) -> RobotConfig:
     if cfg.value is None:
-        raise cfg.error("required section is missing (give robot.urdf or robot.example)")
+        raise cfg.error("required section is missing (give robot.urdf, robot.mjcf or robot.example)")
     cfg.require_mapping()
-    if ("urdf" in cfg.value) == ("example" in cfg.value):
-        raise cfg.error("give exactly one of 'urdf' (a file) or 'example' (a robot name)")
-    urdf = cfg.get("urdf", types=str)
+    if sum(key in cfg.value for key in ("urdf", "example", "mjcf")) != 1:
+        raise cfg.error("give exactly one of 'urdf' (a file), 'mjcf' (a file) or 'example' (a robot name)")
+    if "actuated" in cfg.value and "mjcf" not in cfg.value:
+        raise cfg.error("'actuated' goes with 'mjcf' (a URDF names its actuated joints in <actuated>)", "actuated")
     frames = []
     for i, f in enumerate(cfg.get("frames", [], types=list)):
         fc = Cfg(f, f"{cfg.path}.frames[{i}]", cfg.source)
         fc.require_mapping()
         frames.append(FrameSpec(fc.get("name", required=True, types=str), fc.get("parent", required=True, types=str),
                                 placement(fc)))
+    urdf, mjcf, actuated = cfg.get("urdf", types=str), cfg.get("mjcf", types=str), cfg.get("actuated", types=list)
     return RobotConfig(None if urdf is None else (base_dir / urdf).resolve(), cfg.get("example", types=str),
                        tuple((base_dir / str(d)).resolve() for d in cfg.get("package_dirs", [], types=list)),
-                       placement(cfg.child("base")), tuple(frames))
+                       placement(cfg.child("base")), tuple(frames), None if mjcf is None else (base_dir / mjcf).resolve(),
+                       None if actuated is None else tuple(str(j) for j in actuated))
 
 
 def placement(cfg: Cfg) -> Placement:

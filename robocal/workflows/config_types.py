@@ -41,16 +41,22 @@ class FrameSpec:
 
 @dataclass(frozen=True)
 class RobotConfig:
-    """`robot:` one of a URDF file or an example robot, its base placement and added frames."""
+    """`robot:` one of a URDF file, an MJCF file (with its actuated joints; default: its <actuator> joints) or
+    an example robot, its base placement and added frames."""
 
     urdf: Path | None = None
     example: str | None = None
     package_dirs: tuple[Path, ...] = ()
     base: Placement = Placement()
     frames: tuple[FrameSpec, ...] = ()
+    mjcf: Path | None = None
+    actuated: tuple[str, ...] | None = None
 
     def to_dict(self) -> dict:
-        out: dict = {"urdf": str(self.urdf)} if self.urdf is not None else {"example": self.example}
+        out: dict = ({"urdf": str(self.urdf)} if self.urdf is not None else
+                     {"mjcf": str(self.mjcf)} if self.mjcf is not None else {"example": self.example})
+        if self.actuated is not None:
+            out["actuated"] = list(self.actuated)
         if self.package_dirs:
             out["package_dirs"] = [str(d) for d in self.package_dirs]
         if self.base != Placement():

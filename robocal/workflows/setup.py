@@ -21,6 +21,7 @@ from robocal.estimation.calibrate import CalibrationOptions
 from robocal.estimation.problem import Problem
 from robocal.estimation.sessions import Sessions
 from robocal.io.tables import Table, read_csv
+from robocal.model.mjcf import load_mjcf
 from robocal.model.robot import Robot, load_example, load_urdf
 from robocal.residuals import REGISTRY
 from robocal.workflows.config_measurements import residual_from_block
@@ -69,7 +70,7 @@ def load_config(path: str | Path, urdf: str | Path | None = None) -> Setup:
 
 def with_urdf(config: CalibrationConfig, urdf: str | Path) -> CalibrationConfig:
     """The config with its robot read from another URDF file (base placement and added frames kept)."""
-    robot = dataclasses.replace(config.robot, urdf=Path(urdf).resolve(), example=None)
+    robot = dataclasses.replace(config.robot, urdf=Path(urdf).resolve(), example=None, mjcf=None, actuated=None)
     return dataclasses.replace(config, robot=robot)
 
 
@@ -224,7 +225,9 @@ def joint_columns(data: DataConfig, robot: Robot, frames: Sequence[str], source:
 
 def build_robot(rc: RobotConfig, source: str) -> Robot:
     """The robot of the `robot:` section, with its base placement and added frames."""
-    if rc.urdf is not None:
+    if rc.mjcf is not None:
+        robot = load_mjcf(rc.mjcf, actuated=None if rc.actuated is None else list(rc.actuated))
+    elif rc.urdf is not None:
         robot = load_urdf(rc.urdf, package_dirs=[str(d) for d in rc.package_dirs])
     else:
         try:

@@ -169,7 +169,7 @@ def ik_jacobian(geometry: StewartGeometry, pose: pin.SE3) -> np.ndarray:
 
 
 # ---- URDF ------------------------------------------------------------------------------------
-def _aim_z(direction: np.ndarray) -> np.ndarray:
+def aim_z(direction: np.ndarray) -> np.ndarray:
     """A rotation whose z axis is `direction` (the U joint's home frame)."""
     z = direction / np.linalg.norm(direction)
     x = np.cross(np.eye(3)[int(np.argmin(np.abs(z)))], z)
@@ -196,7 +196,7 @@ def build_urdf(geometry: StewartGeometry, name: str = "stewart") -> str:
     limit = '<limit lower="-1.5707963267948966" upper="1.5707963267948966" effort="0" velocity="0"/>'
     for j in range(6):
         leg = f"leg{j + 1}"
-        rpy = pin.rpy.matrixToRpy(_aim_z(home_tips[j] - N[j]))
+        rpy = pin.rpy.matrixToRpy(aim_z(home_tips[j] - N[j]))
         out += [f'  <link name="{leg}_cross"/>', f'  <link name="{leg}_cylinder"/>', f'  <link name="{leg}_rod"/>',
                 f'  <joint name="{leg}_u1" type="revolute">',
                 f'    <parent link="base"/><child link="{leg}_cross"/>',
