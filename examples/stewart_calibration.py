@@ -157,7 +157,9 @@ def check(runs: dict) -> list[str]:
         mode, n, pj = key.split("|")
         now = cell(mode, int(n), pj, machines=1)[0]
         was = runs["cells"][key][0]
-        if abs(now[0] - was[0]) > 1e-9 * max(abs(was[0]), 1e-6) or now[1] != was[1]:
+        # 1e-4 relative: far below the page's printed digits (3 significant), far above a fit's solver tolerance
+        # amplified through the loop assembly (a change of 1e-6 relative follows from the assembly's accuracy)
+        if abs(now[0] - was[0]) > 1e-4 * max(abs(was[0]), 1e-6) or now[1] != was[1]:
             out.append(f"run {key}, machine 0: recorded tip {was[0]:.6e} m rank {was[1]}, now {now[0]:.6e} m rank {now[1]}")
     for key, guarded in (("literal", False), ("safeguarded", True)):
         now = [[o.converged, o.iterations] for o in newton_draws(robot, tool, guarded, 2)]
