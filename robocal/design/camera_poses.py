@@ -118,16 +118,19 @@ def camera_candidates(robot, joint_names, frame: str, mount: str, fixed: pin.SE3
 
 def camera_design_problem(robot, joint_names, candidates, frame: str, mount: str, fixed: pin.SE3,
                           target: CameraTarget, camera: CameraModel, k, preset: str = "offsets",
-                          sigma: float = 0.5, intrinsics_free=True, name: str = "camera") -> Problem:
+                          sigma: float = 0.5, intrinsics_free=True, name: str = "camera", intrinsics_prior=None,
+                          joints=None) -> Problem:
     """A problem with every corner of the target seen at every candidate (placeholder pixels; the design predicts
-    them), the robot's `preset`, the frame's placement, the intrinsics and the fixed pose free: what
+    them), the robot's `preset` over `joints` (default all of joint_names), the frame's placement, the intrinsics
+    (free as `intrinsics_free` says, with `intrinsics_prior`) and the fixed pose free: what
     robocal.design.selection.DesignMatrix.from_problem needs."""
     n_c = len(target.ids)
     samples = np.repeat(np.arange(len(candidates)), n_c)
     res = ReprojectionResidual(name, frame, samples, np.zeros((len(samples), 2)), np.tile(target.ids, len(candidates)),
                                np.tile(target.points, (len(candidates), 1)), camera, k, mount=mount,
-                               fixed_pose=pose_vector(fixed), intrinsics_free=intrinsics_free, sigma=sigma)
-    params = robot_parameters(robot, list(joint_names), preset, frames={frame: True})
+                               fixed_pose=pose_vector(fixed), intrinsics_free=intrinsics_free,
+                               intrinsics_prior=intrinsics_prior, sigma=sigma)
+    params = robot_parameters(robot, list(joints or joint_names), preset, frames={frame: True})
     return Problem(robot, params, list(joint_names), np.asarray(candidates, dtype=float), [res])
 
 
