@@ -40,7 +40,8 @@ def test_corpus_covers_the_issue_cases():
     assert {"urdf_truncated", "urdf_joint_without_child", "missing_joint_column", "nan_cell", "metres_declared_mm",
             "millimetres_declared_m", "unreachable_strut_lengths", "too_few_poses", "sigma_misspelt_subkey",
             "sigma_negative", "header_only", "unknown_measurement_type", "misspelt_plan_key",
-            "misspelt_simulation_key", "misspelt_iso9283_key"} <= set(CASES)
+            "misspelt_simulation_key", "misspelt_iso9283_key", "camera_corner_not_on_target", "camera_too_few_corners",
+            "camera_pixel_outside_image", "camera_intrinsics_in_mm", "camera_target_seen_from_behind"} <= set(CASES)
 
 
 def _setup(tmp_path, edit_rows=None, config_edit=None, n_rows=None):
