@@ -4,10 +4,8 @@ import numpy as np
 import pinocchio as pin
 
 from robocal import load_example
-from robocal.design.camera_poses import camera_candidates, look_at
+from robocal.design.camera_poses import camera_candidates, look_at, simulate_detections
 from robocal.io.camera_target import target_from_dict
-from robocal.io.detections import Detections
-from robocal.model.kinematics import ModelState
 from robocal.model.parameters import robot_parameters
 from robocal.residuals.camera_model import CameraModel
 
@@ -35,14 +33,5 @@ def camera_scene(mount="eye_in_hand", n_poses=20, noise=0.3, offsets=True, seed=
     if offsets:
         for j in joints:
             params[f"{j}.offset"].value = rng.uniform(1e-3, 5e-3) * rng.choice([-1, 1])
-    ms = ModelState(robot, params, joints)
-    labels, corners, uv = [], [], []
-    for i, v in enumerate(values):
-        M = ms.sample(v).pose(frame)
-        rel = M.inverse() * fixed if mount == "eye_in_hand" else fixed.inverse() * M
-        X = target.points @ rel.rotation.T + rel.translation
-        uv.append(CAMERA.project(X, K_TRUE, derivatives=False) + rng.normal(0, noise, (len(X), 2)))
-        labels += [str(i + 1)] * len(X)
-        corners += list(target.ids)
-    det = Detections("simulated", np.array(labels, dtype=object), np.array(corners), np.vstack(uv))
+    det = simulate_detections(robot, params, joints, values, frame, mount, fixed, target, CAMERA, K_TRUE, noise, rng)
     return robot, params, values, det, target, frame, fixed

@@ -57,7 +57,10 @@ def test_corpus_covers_the_issue_cases():
             "sigma_wrong_dimension", "sigma_larger_than_robot", "weight_negative", "repeated_rows",
             "cv_metres_declared_mm", "centimetres_declared_mm", "inches_declared_mm", "quaternion_scalar_first",
             "joint_beyond_limits", "joint_column_twice", "byte_order_mark", "radians_declared_deg",
-            "urdf_kinematic_loop", "urdf_two_parents"} <= set(CASES)
+            "urdf_kinematic_loop", "urdf_two_parents",
+            # issue 36: camera blocks
+            "camera_corner_not_on_target", "camera_too_few_corners", "camera_pixel_outside_image",
+            "camera_intrinsics_in_mm", "camera_target_seen_from_behind"} <= set(CASES)
 
 
 def _setup(tmp_path, edit_rows=None, config_edit=None, n_rows=None):

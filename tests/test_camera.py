@@ -101,6 +101,14 @@ def test_joint_fit_recovers_hand_eye_offsets_and_intrinsics(mount, no_opencv):
     true = separable_hand_eye(truth_robot, truth, joints, values[0], mount, frame, "tool0", fixed)
     d = true.inverse() * est
     assert np.linalg.norm(d.translation) < 0.5e-3 and np.linalg.norm(pin.log3(d.rotation)) < 2e-3
+    # the camera (target) frame is registered before the joints: the last joint's zero, which no image tells
+    # from the frame's turn about that axis, stays at its nominal zero and the frame's placement takes it, so the
+    # fitted frame already is the separable hand-eye (eye-in-hand) and the statements name the joint
+    assert problem.params["wrist_3_joint.offset"].value == pytest.approx(0.0, abs=1e-9)
+    if mount == "eye_in_hand":
+        d_direct = est.inverse() * he
+        assert np.linalg.norm(d_direct.translation) < 1e-9 and np.linalg.norm(pin.log3(d_direct.rotation)) < 1e-9
+    assert any("Set by the prior only" in s and "wrist_3_joint.offset" in s for s in result.summary().splitlines())
 
 
 # ---- bad input ----------------------------------------------------------------------------------------------------

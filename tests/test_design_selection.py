@@ -148,3 +148,22 @@ def test_closed_chain_stewart_platform_plans_with_the_same_calls():
     random_sets = [predict_pose_accuracy(predict_parameters(design, rng.choice(n, 20, replace=False)), G)
                    .mean_position for _ in range(30)]
     assert d_opt < np.median(random_sets)
+
+
+@pytest.mark.parametrize("criterion", ["D", "A", "E", "O5"])
+def test_tall_blocks_select_as_their_full_rows_would(criterion):
+    """A candidate with more rows than columns (a camera image) is kept as the R of its QR: the same information
+    matrices, so the same choice as with the full rows and the same criterion values to rounding."""
+    rng = np.random.default_rng(3)
+    K, d, L = 40, 12, 5
+    J = rng.normal(size=(K * d, L)) * rng.uniform(0.1, 3.0, (K, 1)).repeat(d, axis=0)
+    units = [np.arange(k * d, (k + 1) * d) for k in range(K)]
+    design = DesignMatrix.from_rows(J, [f"p{i}" for i in range(L)], units)
+    assert design.blocks.shape == (K, L, L)
+    full = DesignMatrix.from_rows(J, [f"p{i}" for i in range(L)], units)
+    full.blocks = np.stack([J[u] / full.scale for u in units])
+    chosen = [0, 5, 7, 9]
+    assert np.allclose(design.information(chosen), full.information(chosen), rtol=1e-12, atol=1e-12)
+    a, b = select_poses(design, 8, criterion), select_poses(full, 8, criterion)
+    assert list(a.chosen) == list(b.chosen)
+    assert a.value == pytest.approx(b.value, rel=1e-9)

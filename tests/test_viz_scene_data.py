@@ -22,7 +22,7 @@ from robocal.model.parameters import robot_parameters
 from robocal.estimation.problem import Problem
 from robocal.residuals import (BallBarResidual, CylinderResidual, LaserLineResidual, PlaneResidual, PointResidual,
                                SphereResidual)
-from robocal.viz.scene import link_tree, read_scene, scene_bytes, scene_data
+from robocal.viz.scene import VERSION, link_tree, read_scene, scene_bytes, scene_data
 from robocal.design.simulate import perturb, random_configurations, simulate_measurements
 
 ARTEFACT_TYPES = ("plane", "sphere", "cylinder", "ball_bar", "laser_line")
@@ -186,7 +186,7 @@ def test_version_1_scene_files_still_open(tmp_path):
         del b["terms"]
     (tmp_path / "scene.json").write_text(json.dumps(old))
     scene = read_scene(tmp_path)
-    assert scene["version"] == 2 and all(b["terms"] == [[i] for i in b["samples"]] for b in scene["blocks"])
+    assert scene["version"] == VERSION and all(b["terms"] == [[i] for i in b["samples"]] for b in scene["blocks"])
     segs = scene["robot"]["skeleton"]["after"]["segments"]
     assert len(segs) == len(scene["robot"]["links"]) - 1           # link origins joined to their parents
     view = SceneView(scene, meshes=False)

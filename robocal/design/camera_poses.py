@@ -5,7 +5,8 @@ fixed target, looking at a point near its centre; eye-to-hand: the target on the
 camera, turned towards it), each with a random roll, and reached by inverse kinematics on the nominal robot from a
 seed reading (the previous solutions serve as further seeds). A candidate is kept when IK converges within the
 joint limits, every corner projects into the image with a margin, and the target faces the camera within
-`max_tilt`. `camera_design_problem` then gives robocal.design.selection the Jacobian of every candidate.
+`max_tilt`. `camera_design_problem` then gives robocal.design.selection the Jacobian of every candidate, and
+`simulate_detections` the corners a camera would detect at given readings (tests, examples, benchmarks).
 """
 from __future__ import annotations
 
@@ -17,6 +18,7 @@ import pinocchio as pin
 from robocal.errors import RobocalError
 from robocal.estimation.problem import Problem
 from robocal.io.camera_target import CameraTarget
+from robocal.io.detections import Detections
 from robocal.model.inverse_kinematics import solve_ik
 from robocal.model.kinematics import ModelState
 from robocal.model.parameters import ParameterSet, robot_parameters
@@ -116,14 +118,39 @@ def camera_candidates(robot, joint_names, frame: str, mount: str, fixed: pin.SE3
 
 def camera_design_problem(robot, joint_names, candidates, frame: str, mount: str, fixed: pin.SE3,
                           target: CameraTarget, camera: CameraModel, k, preset: str = "offsets",
-                          sigma: float = 0.5, intrinsics_free=True, name: str = "camera") -> Problem:
+                          sigma: float = 0.5, intrinsics_free=True, name: str = "camera", intrinsics_prior=None,
+                          joints=None) -> Problem:
     """A problem with every corner of the target seen at every candidate (placeholder pixels; the design predicts
-    them), the robot's `preset`, the frame's placement, the intrinsics and the fixed pose free: what
+    them), the robot's `preset` over `joints` (default all of joint_names), the frame's placement, the intrinsics
+    (free as `intrinsics_free` says, with `intrinsics_prior`) and the fixed pose free: what
     robocal.design.selection.DesignMatrix.from_problem needs."""
     n_c = len(target.ids)
     samples = np.repeat(np.arange(len(candidates)), n_c)
     res = ReprojectionResidual(name, frame, samples, np.zeros((len(samples), 2)), np.tile(target.ids, len(candidates)),
                                np.tile(target.points, (len(candidates), 1)), camera, k, mount=mount,
-                               fixed_pose=pose_vector(fixed), intrinsics_free=intrinsics_free, sigma=sigma)
-    params = robot_parameters(robot, list(joint_names), preset, frames={frame: True})
+                               fixed_pose=pose_vector(fixed), intrinsics_free=intrinsics_free,
+                               intrinsics_prior=intrinsics_prior, sigma=sigma)
+    params = robot_parameters(robot, list(joints or joint_names), preset, frames={frame: True})
     return Problem(robot, params, list(joint_names), np.asarray(candidates, dtype=float), [res])
+
+
+def simulate_detections(robot, params: ParameterSet, joint_names, values, frame: str, mount: str, fixed: pin.SE3,
+                        target: CameraTarget, camera: CameraModel, k, noise: float, rng: np.random.Generator,
+                        labels=None) -> Detections:
+    """The corners seen at each reading on the robot `params` describe (the truth), with Gaussian pixel noise
+    (px); `frame` is the camera (eye-in-hand) or the target (eye-to-hand) on the robot, `fixed` the world pose of
+    the other. Corners behind the camera or outside the image are not detected. Sample labels: `labels`, else
+    1, 2, ... (the joint table's row numbers)."""
+    ms = ModelState(robot, params, list(joint_names))
+    labels = [str(i + 1) for i in range(len(values))] if labels is None else [str(x) for x in labels]
+    samples, corners, uv = [], [], []
+    for lab, v in zip(labels, np.atleast_2d(values)):
+        M = ms.sample(v).pose(frame)
+        rel = M.inverse() * fixed if mount == "eye_in_hand" else fixed.inverse() * M
+        X = target.points @ rel.rotation.T + rel.translation
+        px = camera.project(X, k, derivatives=False) + rng.normal(0, noise, (len(X), 2))
+        seen = (X[:, 2] > 0) & camera.inside(px)
+        samples += [lab] * int(seen.sum())
+        corners.append(target.ids[seen])
+        uv.append(px[seen])
+    return Detections("simulated", np.array(samples, dtype=object), np.concatenate(corners), np.vstack(uv))

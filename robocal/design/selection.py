@@ -54,7 +54,7 @@ class DesignMatrix:
     labels: np.ndarray
     base: BaseSelection
     scale: np.ndarray = field(init=False)      # column scale of the base columns (RMS per candidate)
-    blocks: np.ndarray = field(init=False)     # (K, d_max, L) scaled blocks, zero-padded
+    blocks: np.ndarray = field(init=False)     # (K, min(d_max, L), L) scaled blocks, zero-padded (R of a tall one)
     rows: np.ndarray = field(init=False)       # (K,) true rows per block
 
     def __post_init__(self):
@@ -67,6 +67,10 @@ class DesignMatrix:
         self.blocks = np.zeros((len(self.units), d, len(cols)))
         for k, u in enumerate(self.units):
             self.blocks[k, :len(u)] = Jb[u] / self.scale
+        if d > len(cols):
+            # every criterion and update uses a block only through B^T B: a tall block (a camera image's corners:
+            # 108 rows for 25 columns) is replaced by the R of its QR (R^T R = B^T B), so the updates work on L x L
+            self.blocks = np.linalg.qr(self.blocks, mode="r")
         self.fixed_information = (Jb[self.fixed] / self.scale).T @ (Jb[self.fixed] / self.scale)
 
     # ---- construction ---------------------------------------------------------------------

@@ -5,6 +5,7 @@ The fit itself is `robocal.calibrate` (a name here would be shadowed by the modu
 from robocal.estimation.calibrate import CalibrationOptions
 from robocal.estimation.camera_block import (CameraSetup, camera_problem, camera_setup, hand_eye_of,
                                             separable_hand_eye)
+from robocal.estimation.camera_report import camera_summary
 from robocal.estimation.cross_validation import (RANGE_MARGIN, CVTable, CrossValidation, cross_validate, cv_table,
                                                  edge_folds, kfold, posture_groups, range_excess)
 from robocal.estimation.identifiability import BaseSelection, covariance, select_base_parameters
@@ -16,6 +17,7 @@ from robocal.estimation.result import CalibrationResult
 from robocal.estimation.prediction_errors import BlockErrors, PointStats, norm_errors, point_stats, term_errors
 
 __all__ = ["CalibrationOptions", "CameraSetup", "camera_problem", "camera_setup", "hand_eye_of", "separable_hand_eye",
+           "camera_summary",
            "RANGE_MARGIN", "CVTable", "CrossValidation", "cross_validate", "cv_table",
            "edge_folds", "kfold", "posture_groups", "range_excess", "BaseSelection", "covariance",
            "select_base_parameters", "iso9283_figures", "Rung", "Selection", "ladder", "one_standard_error",

@@ -36,10 +36,11 @@ class CameraSetup:
     attached_to: str                # the robot frame it hangs on
     placement: pin.SE3              # its starting placement relative to `attached_to`
     start: dict[str, float]         # starting values of its placement parameters (non-zero if the URDF had it)
-    pnp: dict[int, pin.SE3]         # target in the camera, per sample index
+    pnp: dict[int, pin.SE3]         # target in the camera, per reading (index into camera_setup's `values`)
     pnp_rms: dict[int, float]       # px
     hand_eye: HandEye
     notes: list[str] = field(default_factory=list)
+    labels: dict[int, str] = field(default_factory=dict)   # sample label of each image, by problem sample index
 
 
 def sample_index(det: Detections, labels) -> np.ndarray:
@@ -82,10 +83,11 @@ def check_detections(det: Detections, target: CameraTarget, camera: CameraModel,
 def camera_setup(robot, joint_names, values, labels, det: Detections, target: CameraTarget, camera: CameraModel,
                  intrinsics, *, mount: str = "eye_in_hand", frame: str = "camera", attached_to: str = "tool0",
                  name: str = "camera", sigma: float = 0.5, intrinsics_free=True, intrinsics_prior=None,
-                 min_corners: int = MIN_CORNERS) -> CameraSetup:
+                 min_corners: int = MIN_CORNERS, sample_ids=None) -> CameraSetup:
     """The camera block of `det` started at the closed-form solution (module docstring). `values` are the joint
-    readings (N, len(joint_names)) in SI, `labels` their sample labels. The frame `frame` is added on
-    `attached_to` at the starting placement if the robot has no such frame. Mutates `robot` only so."""
+    readings (N, len(joint_names)) in SI, `labels` their sample labels; sample_ids (N,): each reading's sample
+    index in the problem the residual goes into (default 0 .. N-1). The frame `frame` is added on `attached_to`
+    at the starting placement if the robot has no such frame. Mutates `robot` only so."""
     check_detections(det, target, camera, min_corners)
     idx = sample_index(det, labels)
     k = camera.check_intrinsics(intrinsics)
@@ -124,12 +126,14 @@ def camera_setup(robot, joint_names, values, labels, det: Detections, target: Ca
     start = place_frame(robot, frame, attached_to, placement)
     order = np.argsort(idx, kind="stable")
     ts = None if det.sigma is None else det.sigma[order]
-    res = ReprojectionResidual(name, frame, idx[order], det.uv[order], det.corners[order],
+    ids = np.arange(len(values)) if sample_ids is None else np.asarray(sample_ids, dtype=int)
+    res = ReprojectionResidual(name, frame, ids[idx[order]], det.uv[order], det.corners[order],
                                target.points_of(det.corners[order]), camera, k, mount=mount, fixed_pose=fixed,
                                intrinsics_free=intrinsics_free, intrinsics_prior=intrinsics_prior, sigma=sigma,
                                term_sigma=ts)
     res.lines = None if det.lines is None else det.lines[order]
-    return CameraSetup(res, frame, attached_to, placement, start, pnp, rms, he, notes)
+    return CameraSetup(res, frame, attached_to, placement, start, pnp, rms, he, notes,
+                       {int(ids[i]): str(labels[i]) for i in images})
 
 
 def place_frame(robot, frame: str, attached_to: str, placement: pin.SE3) -> dict[str, float]:

@@ -181,7 +181,8 @@ def cv_table(problem: Problem, folds: list[np.ndarray], options: CalibrationOpti
 
 
 def norms_by_unit(blocks: dict) -> dict[str, np.ndarray]:
-    """{unit: every point's (mm) or orientation's (mrad) error norm over all blocks}, lengths first."""
+    """{unit: every point's (mm), orientation's (mrad) or image point's (px) error norm over all blocks}, lengths
+    first."""
     out: dict[str, list] = {}
     for kind, (_, unit, _) in UNITS.items():
         for b in blocks.values():
@@ -189,7 +190,7 @@ def norms_by_unit(blocks: dict) -> dict[str, np.ndarray]:
             if e is not None:
                 out.setdefault(unit, []).append(e.reshape(-1))
     if not out:
-        raise InputError("no length or angle measurement to score")
+        raise InputError("no length, angle or pixel measurement to score")
     return {u: np.concatenate(v) for u, v in out.items()}
 
 

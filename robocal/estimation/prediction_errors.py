@@ -21,7 +21,10 @@ from robocal.model.parameters import ParameterSet
 from robocal.residuals.base import Residual
 
 MM = 1e3
-UNITS = {"length": (1e3, "mm", "3D position error"), "angle": (1e3, "mrad", "3D orientation error")}
+UNITS = {"length": (1e3, "mm", "3D position error"), "angle": (1e3, "mrad", "3D orientation error"),
+         "pixel": (1.0, "px", "2D reprojection error")}
+#: rows of one kind that form one vector: a 3D point or rotation, a pixel's (u, v)
+GROUP = {"pixel": 2}
 
 
 @dataclass
@@ -128,7 +131,8 @@ def norm_errors(block: BlockErrors) -> dict[str, np.ndarray]:
     for kind in dict.fromkeys(block.row_units):
         scale = UNITS.get(kind, (1.0, kind, kind))[0]
         cols = block.raw[:, units == kind] * scale
-        out[kind] = (np.linalg.norm(cols.reshape(len(cols), -1, 3), axis=2) if cols.shape[1] % 3 == 0
+        g = GROUP.get(kind, 3)
+        out[kind] = (np.linalg.norm(cols.reshape(len(cols), -1, g), axis=2) if cols.shape[1] % g == 0
                      else np.abs(cols))
     return out
 
@@ -139,8 +143,9 @@ def norm_rms(values: np.ndarray) -> dict:
     return {"n": int(len(v)), "rms_norm": float(np.sqrt(np.mean(v ** 2))), "max_norm": float(np.max(v))}
 
 def primary_errors(blocks: dict[str, BlockErrors]) -> tuple[np.ndarray, np.ndarray, str]:
-    """(samples, norms) of every length point of every block (mm) or, without lengths, of the angles (mrad)."""
-    for kind in ("length", "angle"):
+    """(samples, norms) of every length point of every block (mm) or, without lengths, of the angles (mrad), or
+    without either, of the pixels (px)."""
+    for kind in ("length", "angle", "pixel"):
         samples, norms = [], []
         for b in blocks.values():
             e = norm_errors(b).get(kind)
@@ -150,4 +155,4 @@ def primary_errors(blocks: dict[str, BlockErrors]) -> tuple[np.ndarray, np.ndarr
                 norms.append(e.reshape(-1))
         if norms:
             return np.concatenate(samples), np.concatenate(norms), UNITS[kind][1]
-    raise InputError("no length or angle measurement to score")
+    raise InputError("no length, angle or pixel measurement to score")

@@ -75,8 +75,11 @@ class Problem:
             if bad:
                 raise ValueError(f"residual '{res.name}' refers to sample {bad[0]}, outside 0..{len(self.values) - 1}")
         # Identifiability keeps the earlier of two parameters it cannot tell apart: the measurement frame
-        # first, then the measurement set-up (plane, sphere centre, marker points), then the robot.
-        params.reorder(lambda p: KIND_ORDER.get(p.kind, 2))
+        # first, then the measurement set-up (plane, sphere centre, marker points) and the frames a residual
+        # registers (a camera's hand-eye: it keeps the last joint's zero it cannot tell from it), then the robot.
+        registered = {f for res in self.residuals for f in res.registration_frames}
+        params.reorder(lambda p: KIND_ORDER.get(p.kind, 1 if p.kind == "frame_placement" and p.target in registered
+                                                else 2))
         self.blocks = self.layout()
         self.warm_starts: dict = {}
         self.closed_chain_cache: dict = {}   # closed chains: what stays between passes (robocal.model.closed_chain_batch)

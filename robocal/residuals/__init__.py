@@ -18,6 +18,6 @@ REGISTRY: dict[str, type[Residual]] = {cls.type_name: cls for cls in (
     BallBarResidual, LaserLineResidual, StrutIKResidual, ToolAxisResidual, SphereArtefactResidual,
     ReprojectionResidual)}
 
-from robocal.residuals.camera_model import CameraModel
+from robocal.residuals.camera_model import CameraModel, CameraSpec, camera_spec_from_dict
 
-__all__ = ["Residual", "Term", "REGISTRY", "CameraModel", *[c.__name__ for c in REGISTRY.values()]]
+__all__ = ["Residual", "Term", "REGISTRY", "CameraModel", "CameraSpec", "camera_spec_from_dict", *[c.__name__ for c in REGISTRY.values()]]

@@ -68,6 +68,9 @@ class Residual(ABC):
     #: True when the data hold a measured quantity (simulate by prediction + noise); False for
     #: contact-type constraints whose only data are joint readings (simulate by moving the robot onto them).
     observed: ClassVar[bool] = True
+    #: robot frames whose placement this measurement registers, as it registers its own set-up (a camera's
+    #: hand-eye transform): identifiability orders their placement before the joints (estimation.problem)
+    registration_frames: tuple[str, ...] = ()
 
     def __init__(self, name: str, samples, sigma, weights=None):
         self.name = name

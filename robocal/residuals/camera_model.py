@@ -10,7 +10,7 @@ Intrinsics are in pixels (fx fy cx cy) and unitless (distortion); the image is w
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -43,20 +43,21 @@ class CameraModel:
         """Intrinsic names in the order of the intrinsics vector."""
         return ("fx", "fy", "cx", "cy") + DISTORTION[self.model]
 
-    def check_intrinsics(self, values, source: str = "config") -> np.ndarray:
+    def check_intrinsics(self, values, source: str = "config", prefix: str = "camera") -> np.ndarray:
         """The intrinsics as a vector in `names` order; refuses focal lengths that are not in pixels."""
         k = np.asarray(values, dtype=float).reshape(-1)
         if len(k) != len(self.names):
             raise InputError(f"a {self.model} camera has {len(self.names)} intrinsics ({', '.join(self.names)}), "
-                             f"got {len(k)}", source=source, field="camera.intrinsics")
+                             f"got {len(k)}", source=source, field=f"{prefix}.intrinsics")
         if not np.all(np.isfinite(k)):
-            raise InputError("the intrinsics must be finite numbers", source=source, field="camera.intrinsics")
+            raise InputError("the intrinsics must be finite numbers", source=source, field=f"{prefix}.intrinsics")
         for name, f in zip(("fx", "fy"), k[:2]):
             if f < MIN_FOCAL_FRACTION * self.width:
                 raise InputError(
                     f"{name} = {f:g} is not a focal length in pixels for a {self.width}-pixel-wide image (below "
                     f"{MIN_FOCAL_FRACTION:g} x width); a lens's focal length in mm divided by the pixel pitch in mm "
-                    "gives pixels (e.g. 8 mm / 0.0034 mm = 2353 px)", source=source, field=f"camera.intrinsics.{name}")
+                    "gives pixels (e.g. 8 mm / 0.0034 mm = 2353 px)", source=source,
+                    field=f"{prefix}.intrinsics.{name}")
         return k
 
     def inside(self, uv: np.ndarray, margin: float = 0.0) -> np.ndarray:
@@ -151,3 +152,69 @@ def _fisheye(x, y, d):
         dd[:, 0, j] = x * over_r * th ** (2 * j + 2)
         dd[:, 1, j] = y * over_r * th ** (2 * j + 2)
     return xd, yd, dxy, dd
+
+
+@dataclass
+class CameraSpec:
+    """A camera as a config gives it: the model, the intrinsics' values, which are free and their priors."""
+
+    model: CameraModel
+    intrinsics: np.ndarray                 # in model.names order
+    free: bool | tuple[str, ...] = True    # True: all; False: none; or the free names
+    prior: dict[str, float] = field(default_factory=dict)    # {name: sigma} around the given values
+
+
+SPEC_KEYS = ("model", "image_size", "intrinsics", "free", "prior")
+
+
+def camera_spec_from_dict(d, source: str = "config", prefix: str = "camera") -> CameraSpec:
+    """The camera of a config mapping {model, image_size: [w, h], intrinsics: [fx, fy, cx, cy, k1 ...] or
+    {fx: .., cx: .., k1: ..} (distortion terms left out are 0), free: true | false | [names], prior: {name:
+    sigma}} (docs/camera.md); every error names the key under `prefix`."""
+    def error(msg, key=None):
+        return InputError(msg, source=source, field=f"{prefix}.{key}" if key else prefix)
+    if not isinstance(d, dict):
+        raise error(f"expected a mapping ({', '.join(SPEC_KEYS)})")
+    for key in d:
+        if key not in SPEC_KEYS:
+            raise error(f"unknown key (allowed: {', '.join(SPEC_KEYS)})", key)
+    size = d.get("image_size")
+    if (not isinstance(size, (list, tuple)) or len(size) != 2
+            or not all(isinstance(v, int) and not isinstance(v, bool) and v > 0 for v in size)):
+        raise error(f"expected [width, height] in pixels, two positive integers, got {size!r}", "image_size")
+    model = d.get("model", "plumb_bob")
+    if model not in DISTORTION:
+        raise error(f"unknown camera model {model!r} (known: {', '.join(DISTORTION)})", "model")
+    cam = CameraModel(model, int(size[0]), int(size[1]))
+    raw = d.get("intrinsics")
+    if isinstance(raw, dict):
+        unknown = [n for n in raw if n not in cam.names]
+        missing = [n for n in cam.names[:4] if n not in raw]
+        if unknown or missing:
+            raise error(f"{'no intrinsic named ' + repr(unknown[0]) if unknown else 'missing ' + missing[0]} "
+                        f"(a {model} camera has {', '.join(cam.names)})", "intrinsics")
+        raw = [raw.get(n, 0.0) for n in cam.names]
+    if not isinstance(raw, (list, tuple)) or not all(isinstance(v, (int, float)) and not isinstance(v, bool)
+                                                     for v in raw):
+        raise error(f"expected a list of numbers ({', '.join(cam.names)}) or a mapping name: value, got {raw!r}",
+                    "intrinsics")
+    k = cam.check_intrinsics(raw, source, prefix)
+    free = d.get("free", True)
+    if isinstance(free, list) and all(isinstance(n, str) for n in free):
+        bad = [n for n in free if n not in cam.names]
+        if bad:
+            raise error(f"no intrinsic named {bad[0]!r} ({', '.join(cam.names)})", "free")
+        free = tuple(free)
+    elif not isinstance(free, bool):
+        raise error(f"expected true, false or a list of intrinsic names, got {free!r}", "free")
+    prior = d.get("prior", {})
+    if not isinstance(prior, dict):
+        raise error(f"expected a mapping intrinsic name: sigma, got {prior!r}", "prior")
+    for n, sigma in prior.items():
+        if n not in cam.names:
+            raise error(f"no intrinsic named {n!r} ({', '.join(cam.names)})", f"prior.{n}")
+        if isinstance(sigma, bool) or not isinstance(sigma, (int, float)) or not (np.isfinite(sigma) and sigma > 0):
+            raise error(f"a prior sigma must be a positive number (px for fx fy cx cy), got {sigma!r}", f"prior.{n}")
+        if not (free is True or n in (free or ())):
+            raise error(f"{n} is fixed (camera.free): a prior needs it free", f"prior.{n}")
+    return CameraSpec(cam, k, free, {str(n): float(v) for n, v in prior.items()})

@@ -54,6 +54,9 @@ class ReprojectionResidual(Residual):
         if mount not in MOUNTS:
             raise ValueError(f"camera '{name}': mount must be one of {', '.join(MOUNTS)}, got {mount!r}")
         self.frame, self.mount, self.camera = frame, mount, camera
+        # the camera (target) frame's placement is the hand-eye transform: a registration, kept before the joints
+        # (no image tells its turn about the last joint's axis from that joint's zero: the joint's is dropped)
+        self.registration_frames = (frame,)
         self.corners = np.asarray(corners, dtype=int).reshape(-1)
         self.points = np.asarray(points, dtype=float).reshape(-1, 3)
         self.measurements = np.asarray(measurements, dtype=float).reshape(-1, 2)

@@ -65,16 +65,27 @@ def _pose_triads(view, node, b: dict, origins: np.ndarray) -> None:
 def current_point(b: dict, sample: int) -> np.ndarray | None:
     """Where the current-sample marker goes: the mean of a one-sample term's points, or this sample's
     own point in a term over several samples (a sphere-artefact placement); None when not measured."""
+    found = []          # a camera image has one term per corner: the marker goes to their mean
     for k, term in enumerate(b["terms"]):
         if sample not in term or k >= len(b["measured_after"]):
             continue
         pts = np.array(b["measured_after"][k]).reshape(-1, 3)
-        return pts.mean(axis=0) if len(term) == 1 else pts[term.index(sample)]
-    return None
+        if len(term) > 1:
+            return pts[term.index(sample)]
+        found.append(pts)
+    return np.vstack(found).mean(axis=0) if found and len(np.vstack(found)) else None
 
 
 def label_parts(b: dict, sample: int) -> list[str]:
-    """'block: |r| before -> after mm' for each term of the block that uses the sample (length rows)."""
+    """'block: |r| before -> after mm' for each term of the block that uses the sample (length rows); a camera
+    block: 'block: RMS before -> after px (n corners)' over the sample's corners."""
+    if "camera" in b:
+        terms = [k for k, term in enumerate(b["terms"]) if sample in term]
+        if not terms:
+            return []
+        r0, r1 = (np.sqrt(np.mean(np.sum(np.array(b[f"residual_{s}"])[terms] ** 2, axis=1)))
+                  for s in ("before", "after"))
+        return [f"{b['name']}: RMS {r0:.3g} -> {r1:.3g} px ({len(terms)} corners)"]
     length = np.array(b["row_units"]) == "length"     # mm only: pose blocks also hold angles
     out = []
     for k, term in enumerate(b["terms"]):

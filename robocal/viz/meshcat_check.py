@@ -13,6 +13,7 @@ Drawn under /meshcat/robocal:
                           arrows before / after, each scaled for visibility and coloured by size; pose
                           blocks: triads (robocal.viz.measurements)
   artefacts/<block>/      the measurement artefacts (robocal.viz.artefacts)
+  camera/<block>/         a camera's frustum, target and the current image's rays (robocal.viz.camera_view)
   current/<block>         a marker on the current sample's measurement
 Every pose comes from the scene's per-sample link poses (SampleState.pose), so closed-chain machines are
 drawn with their loops closed without any special case here.
@@ -32,6 +33,7 @@ import pinocchio as pin
 from robocal.viz.meshcat_page import STEP_SCRIPT, RecordingWindow
 from robocal.viz.scene import samples_phrase, upgrade
 from robocal.viz.artefacts import draw_artefact
+from robocal.viz.camera_view import camera_commands, draw_camera
 from robocal.viz.measurements import current_point, draw_measurements, label_parts, rotation_scale
 from robocal.viz.shapes import ARROW_FRACTION, COLOURS, nice_factor, se3_from_pose7
 from robocal.viz.skeleton import draw_skeleton, segment_at
@@ -154,6 +156,8 @@ class SceneView:
         for b in self.scene["blocks"]:
             draw_measurements(self, b)
             draw_artefact(self, b)
+            if "camera" in b:
+                draw_camera(self, b)
         self._camera()
         self.drawn = True
         self.show_sample(sample)
@@ -188,6 +192,10 @@ class SceneView:
             V[path] = point is not None
             if point is not None:
                 T[path] = pin.SE3(np.eye(3), point).homogeneous
+            if "camera" in b:
+                Tc, Vc = camera_commands(self, b, sample, base)
+                T.update(Tc)
+                V.update(Vc)
         return T, V
 
     def show_sample(self, sample: int) -> None:
@@ -223,6 +231,10 @@ class SceneView:
         for s in ("before", "after"):
             rows.append(f'residual {s}: <span class="bar"></span> 0 &ndash; {1e3 * self.arrow_max[s]:.3g} mm, '
                         f'arrows &times;{self.arrow_scale[s]:g}')
+        if any("camera" in b for b in self.scene["blocks"]):
+            rows.append("camera: frustum (grey lines) and target (board); the current image's rays through each "
+                        "detected corner, measured points on them at the corner's depth, arrows to the reprojected "
+                        "corners (the pixel error carried to the target)")
         if any(b["type"] == "pose" for b in self.scene["blocks"]):
             rows.append("pose triads: measured (red, green, blue axes), predicted after (blue) / before (orange, "
                         "hidden); rotation errors &times;" + ", &times;".join(

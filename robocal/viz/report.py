@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from robocal.viz import plots
+from robocal.viz.camera_plots import camera_images, reprojection_panels
 from robocal.errors import InputError
 from robocal.viz.report_validation import evaluation_section, refusal_section
 from robocal.viz.scene import read_scene, samples_phrase
@@ -53,13 +54,16 @@ def report_plots(result: dict, scene: dict | None) -> list[tuple[str, str]]:
     out = []
     if scene:
         for b in scene["blocks"]:
+            if "camera" in b:
+                out += camera_figures(b)
+                continue
             r0, r1 = _length_rows(b, "before"), _length_rows(b, "after")
             if r0.shape[1]:
                 out.append((f"Residual per sample of block '{b['name']}' ({b['type']}): length rows, mm",
                             png_base64(plots.residuals_per_sample, 1e3 * np.linalg.norm(r0, axis=1),
                                  1e3 * np.linalg.norm(r1, axis=1), title=f"{b['name']}: residual per sample")))
         errs = {s: [np.array(b[f"predicted_{s}"]).reshape(-1, 3) - np.array(b[f"measured_{s}"]).reshape(-1, 3)
-                    for b in scene["blocks"] if b[f"measured_{s}"]] for s in ("before", "after")}
+                    for b in scene["blocks"] if b[f"measured_{s}"] and "camera" not in b] for s in ("before", "after")}
         if errs["after"]:
             out.append(("Per-axis error of every drawn point (predicted - measured), measurement frame, mm",
                         png_base64(plots.error_histograms, 1e3 * np.vstack(errs["before"]), 1e3 * np.vstack(errs["after"]))))
@@ -74,6 +78,19 @@ def report_plots(result: dict, scene: dict | None) -> list[tuple[str, str]]:
                     f"base-parameter selection kept {ident['rank']} of {ident['requested']} parameters",
                     png_base64(plots.singular_values, ident["singular_values"], min(ident["rank"], len(ident["singular_values"])))))
     return out
+
+
+def camera_figures(b: dict) -> list[tuple[str, str]]:
+    """A camera block's figures: RMS per image before / after, and detected against reprojected corners."""
+    images = camera_images(b)
+    buf = io.BytesIO()
+    _, scale, shown = reprojection_panels(images, b["camera"]["image_size"], buf)
+    return [(f"Reprojection RMS per image of block '{b['name']}' (camera), px per corner",
+             png_base64(plots.residuals_per_sample, [im["rms_before"] for im in images],
+                        [im["rms_after"] for im in images], unit="px", title=f"{b['name']}: RMS per image")),
+            (f"Block '{b['name']}': detected corners (dots) and the calibrated model's reprojections (crosses) in "
+             f"the {shown} image(s) with the largest RMS of {len(images)}; arrows x{scale:g}",
+             base64.b64encode(buf.getvalue()).decode("ascii"))]
 
 
 # ---- HTML ---------------------------------------------------------------------------------------

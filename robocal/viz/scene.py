@@ -13,7 +13,9 @@ the fit) on every sample and records, in SI units:
 Poses of a serial robot come from the batched kinematics (robocal.model.batch_kinematics, all samples at
 once); any other robot's from `SampleState.pose(frame)`, so a closed-chain machine (whose SampleState
 assembles its loops) is recorded exactly like a serial arm. Nothing here loads meshes: the viewer does that.
-Version 2 added the skeleton and `terms`; `read_scene` fills both in for a version-1 file.
+Version 2 added the skeleton and `terms`; `read_scene` fills both in for a version-1 file. Version 3 added a
+camera block's points (the detected pixel's ray at the corner's depth, the corner) and its `camera` entry
+(robocal.viz.camera_scene); versions 1 and 2 have no camera blocks, so they read unchanged.
 """
 from __future__ import annotations
 
@@ -31,14 +33,15 @@ from robocal.model.kinematics import ModelState
 from robocal.model.lie_arrays import quaternions
 from robocal.estimation.prediction_errors import subset_residual
 from robocal.residuals.base import tilted_direction
+from robocal.viz.camera_scene import camera_entry, camera_points
 from robocal.viz.skeleton_layout import skeleton, skeleton_from_links
 from robocal.residuals.sphere_fit import fit_sphere
 
 log = logging.getLogger(__name__)
 
 FORMAT = "robocal-scene"
-VERSION = 2
-SUPPORTED = (1, 2)
+VERSION = 3
+SUPPORTED = (1, 2, 3)
 STATES = ("before", "after")
 # A scene draws at most this many samples: at 10000 UR5 poses scene.json is already ~37 MB and takes ~2 s,
 # and a million would be gigabytes that no browser draws. Beyond it, evenly spaced samples are drawn, the
@@ -128,6 +131,8 @@ def _points(res, k, M, aux) -> tuple[np.ndarray, np.ndarray]:
         P, o = aux[:3], M.act(aux[3:6])
         u = M.rotation @ tilted_direction(res.R0, aux[6], aux[7])[0]
         return P[None, :], (o + ((P - o) @ u) * u)[None, :]
+    if t == "camera":
+        return camera_points(res, k, M, aux)
     return np.zeros((0, 3)), np.zeros((0, 3))
 
 
@@ -207,6 +212,8 @@ def _block(res, states, param_sets, position: np.ndarray) -> dict:
                                          for i in res.samples]
     if res.type_name == "pose":
         block["measured_orientation"] = res.measurements[:, 3:7].tolist()
+    if res.type_name == "camera":
+        block["camera"] = camera_entry(res, {s: _aux(param_sets[s], res) for s in STATES})
     if not block["measured_after"]:
         log.info("block %s (%s): no points to draw for this measurement type", res.name, res.type_name)
     return block
@@ -305,10 +312,11 @@ def read_scene(path: str | Path) -> dict:
 
 
 def upgrade(data: dict) -> dict:
-    """A version-1 scene in the version-2 layout (skeleton from the link origins, one sample per term)."""
+    """An older scene in the current layout: version 1 gets the skeleton from the link origins and one sample per
+    term; version 2 needs nothing (it has no camera blocks)."""
     if data.get("version") == 1:
         data["robot"]["skeleton"] = {s: skeleton_from_links(data, s) for s in STATES}
         for b in data["blocks"]:
             b["terms"] = [[i] for i in b["samples"]]
-        data["version"] = VERSION
+    data["version"] = VERSION
     return data

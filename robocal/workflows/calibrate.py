@@ -6,7 +6,7 @@ data (before any fitting time is spent), refuse data whose spread says wrong uni
 robot and fit, then write the folder atomically: result.json, summary.txt, the calibrated URDF (only for a
 fit that is not refused, unless allow_failed), config.yaml (the config with absolute paths, which `robocal
 evaluate` reads), scene.json (before = the registered nominal robot, after = the calibrated one), report.html
-(the [viz] extra) and iso9283.json when the config asks for ISO 9283 figures.
+(the [viz] extra), iso9283.json when the config asks for ISO 9283 figures and hand_eye.json for camera blocks.
 """
 from __future__ import annotations
 
@@ -19,6 +19,7 @@ import numpy as np
 import yaml
 
 from robocal.estimation.calibrate import calibrate
+from robocal.estimation.camera_report import camera_summary
 from robocal.estimation.result import CalibrationResult
 from robocal.io.output_folder import check_replaceable
 from robocal.viz.scene import scene_bytes, scene_note
@@ -85,6 +86,10 @@ def run_calibration(setup: Setup, output_dir: str | Path | None = None, *, force
         notes.append(note)
     files = {"config.yaml": yaml.safe_dump(setup.config.to_dict(), sort_keys=False).encode(),
              "scene.json": scene_bytes(setup, result, result.registered_nominal(nominal))}
+    if setup.cameras:               # the hand-eye and intrinsics as a camera user reads them (docs/camera.md)
+        cams = {name: camera_summary(problem, c) for name, c in setup.cameras.items()}
+        files["hand_eye.json"] = (json.dumps(cams, indent=2) + "\n").encode()
+        notes += [f"{name}: {n}" for name, c in setup.cameras.items() for n in c.notes]
     iso = None
     if setup.config.iso9283 is not None:
         iso = iso9283_run(setup, nominal, problem.params, result).to_dict()

@@ -54,12 +54,19 @@ BLOCK_KEYS = ("type", "name", "csv", "where", "columns", "samples")
 #: constructor arguments that the config fills itself (not keys a user writes)
 FILLED_BY_CONFIG = ("self", "name", "samples", "measurements", "columns")
 #: measurement types built from Python only: their constructors take arrays a YAML block cannot give
-# camera: built from Python (robocal.estimation.camera_block.camera_setup) until its block is wired into the typed config
-PYTHON_ONLY_TYPES = ("sphere_artefact", "strut_ik", "camera")
+PYTHON_ONLY_TYPES = ("sphere_artefact", "strut_ik")
+#: measurement types whose block keys are their own, not their constructor's (workflows/config_camera.py)
+OWN_KEYS = {"camera": {"frame": None, "sigma": None, "attached_to": None, "mount": None, "detections": None,
+                       "target": FREE, "min_corners": None, "world_pose": PLACEMENT,
+                       "camera": {"model": None, "image_size": None, "intrinsics": FREE, "free": None,
+                                  "prior": FREE}}}
 
 
 def measurement_keys(type_name: str) -> dict:
-    """The keys a block of this measurement type accepts: the shared ones and its constructor's."""
+    """The keys a block of this measurement type accepts: the shared ones and its constructor's (or its own)."""
+    if type_name in OWN_KEYS:
+        shared = {k: None for k in BLOCK_KEYS if k not in ("columns", "samples")}
+        return {**shared, **OWN_KEYS[type_name], "where": FREE}
     cls = REGISTRY[type_name]
     own = [p for p in inspect.signature(cls.__init__).parameters if p not in FILLED_BY_CONFIG]
     return {**{k: None for k in BLOCK_KEYS}, **{k: (SIGMA if k == "sigma" else None) for k in own},

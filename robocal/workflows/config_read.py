@@ -19,6 +19,7 @@ from robocal.io.tables import ANGLE_UNITS, LENGTH_UNITS
 from robocal.io.yaml_files import read_yaml
 from robocal.model.approach import ApproachSpec
 from robocal.model.parameters import COMPONENTS
+from robocal.workflows.config_camera import camera_block_config
 from robocal.workflows.config_keys import FILLED_BY_CONFIG, TOP_KEYS, Cfg, check_keys
 from robocal.workflows.config_types import (CalibrationConfig, CandidatesConfig, DataConfig, FrameSpec,
                                             Iso9283Config, MeasurementConfig, OutputConfig, ParametersConfig,
@@ -240,6 +241,12 @@ def measurement_config(b: Cfg, i: int, base_dir: Path, data: DataConfig) -> Meas
     where = b.get("where", types=dict)
     if where is not None and len(where) != 1:
         raise b.error("where selects rows by one column: {column: value}", "where")
+    if cls.type_name == "camera":      # its own keys, no columns (config_camera.py)
+        camera, sigma = camera_block_config(b, base_dir, placement)
+        csv = b.get("csv", types=str)
+        return MeasurementConfig(cls.type_name, b.get("name", f"{cls.type_name}{i}", types=str), frame, b.path,
+                                 None if csv is None else (base_dir / csv).resolve(),
+                                 None if where is None else next(iter(where.items())), sigma=sigma, camera=camera)
     columns = b.get("columns", None, types=list)
     if accepts_measurements(cls):
         if columns is None:

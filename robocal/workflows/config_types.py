@@ -149,11 +149,36 @@ class ParametersConfig:
 
 
 @dataclass(frozen=True)
+class CameraBlockConfig:
+    """The own keys of a `type: camera` block (workflows/config_camera.py, docs/camera.md): the frame the camera
+    (target) hangs on, the mount, the detections CSV, the target and camera mappings as given (checked), the
+    fewest corners an image may have, and the world pose of the part not on the robot (robocal plan)."""
+
+    attached_to: str = "tool0"
+    mount: str = "eye_in_hand"
+    detections: Path | None = None
+    target: dict = field(default_factory=dict)
+    camera: dict = field(default_factory=dict)
+    min_corners: int = 6
+    world_pose: Placement | None = None
+
+    def to_dict(self) -> dict:
+        out = {"attached_to": self.attached_to, "mount": self.mount}
+        if self.detections is not None:
+            out["detections"] = str(self.detections)
+        out.update({"target": _plain(self.target), "camera": _plain(self.camera), "min_corners": self.min_corners})
+        if self.world_pose is not None:
+            out["world_pose"] = self.world_pose.to_dict()
+        return out
+
+
+@dataclass(frozen=True)
 class MeasurementConfig:
     """One measurement block: its type, name, measured frame, where its rows come from (csv, where), its
     columns, sigma (a number, or (position, orientation), in the data's units; None: the type's default) and
     the type's own settings (constructor keywords, e.g. point, normal, centre). samples: rows `robocal
-    simulate` makes for a contact block. path: the block's key path for error messages."""
+    simulate` makes for a contact block. path: the block's key path for error messages. camera: a camera
+    block's own keys (its sigma in px)."""
 
     type: str
     name: str
@@ -165,6 +190,13 @@ class MeasurementConfig:
     sigma: float | tuple[float, float] | None = None
     settings: dict = field(default_factory=dict)
     samples: int | None = None
+    camera: CameraBlockConfig | None = None
+
+    @property
+    def moved_frame(self) -> str:
+        """The robot frame whose joints move this block's frame: a camera block's may not exist before the
+        set-up adds it on `attached_to`, which the same joints move."""
+        return self.camera.attached_to if self.camera is not None else self.frame
 
     def to_dict(self) -> dict:
         out: dict = {"type": self.type, "name": self.name, "frame": self.frame}
@@ -180,6 +212,8 @@ class MeasurementConfig:
         out.update({k: _plain(v) for k, v in self.settings.items()})
         if self.samples is not None:
             out["samples"] = self.samples
+        if self.camera is not None:
+            out.update(self.camera.to_dict())
         return out
 
 
@@ -281,8 +315,9 @@ class CalibrationConfig:
 
     @property
     def frames(self) -> list[str]:
-        """The measured frame of every block, in order."""
-        return [m.frame for m in self.measurements]
+        """The measured frame of every block, in order (a camera block: the frame its camera or target hangs on,
+        moved by the same joints)."""
+        return [m.moved_frame for m in self.measurements]
 
     def to_dict(self) -> dict:
         """The YAML mapping of this config, paths absolute: it rebuilds the same model from anywhere."""

@@ -21,6 +21,7 @@ from robocal.estimation.cross_validation import RANGE_MARGIN, range_excess
 from robocal.estimation.registration import fit_subset
 from robocal.estimation.prediction_errors import UNITS, norm_errors, norm_rms, term_errors
 from robocal.io.tables import read_csv
+from robocal.workflows.config_camera import refuse_camera_blocks
 from robocal.workflows.config_read import read_config, with_parameters
 from robocal.workflows.config_types import CalibrationConfig
 from robocal.workflows.setup import Setup, build_setup
@@ -70,6 +71,9 @@ def evaluate_result(result_dir, csv, config, refit: list[str] | None = None,
                     options: CalibrationOptions | None = None) -> EvaluationReport:
     """Score the model of `result_dir` on `csv` (columns as in `config`); refit only the `refit` patterns."""
     result, source = load_result(result_dir)
+    config = config if isinstance(config, CalibrationConfig) else read_config(config)
+    refuse_camera_blocks(config, "evaluate", "their measurements are a detections file, not columns of the CSV "
+                         "it scores; score other images with a config of their own (robocal cv holds images out)")
     train = setup_for_data(config)
     setup = setup_for_data(config, csv)
     findings = units_findings(setup)      # the other session in the config's units, as calibrate checks

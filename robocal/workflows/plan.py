@@ -16,6 +16,8 @@ the data file need not exist (no measurements are read). All keys are optional:
       curve: [10, 20, 30, 45, 60]   # pose counts of the accuracy curve (default: about 8 from the minimum to 2 N)
       output: {dir: robocal-plan}
 
+A camera block plans viewpoints that keep its target in view (plan_camera.py).
+
 Written (atomically, into one folder): poses.csv and poses.yaml (the chosen readings, in the data's
 joint units), prediction.json, accuracy_map.csv, accuracy_curve.csv, summary.txt.
 """
@@ -33,6 +35,7 @@ from robocal.residuals import REGISTRY
 from robocal.workflows.config_read import read_config
 from robocal.workflows.config_sections import is_prismatic
 from robocal.workflows.config_types import CalibrationConfig, PlanConfig
+from robocal.workflows.plan_camera import camera_block, camera_plan_problem
 from robocal.workflows.setup import build_robot, build_setup, joint_columns
 from robocal.io.tables import ANGLE_UNITS, LENGTH_UNITS, Table
 from robocal.design.selection import DesignMatrix, PoseSelection, select_poses
@@ -82,16 +85,20 @@ def plan_from_config(path: str | Path, seed: int | None = None, scheduler: str |
     plan = config.plan or PlanConfig(output_dir=(config.base_dir / "robocal-plan").resolve())
     robot = build_robot(config.robot, config.source)
     frame = plan.frame or config.measurements[0].frame
+    camera = camera_block(config)
+    joint_cols = joint_columns(config.data, robot, config.frames, config.source)
+    joint_names = list(joint_cols)
+    rng = np.random.default_rng(plan.seed if seed is None else seed)
+    if camera is not None:         # viewpoints of the target (plan_camera.py); the camera frame added if new
+        screening, candidates, problem = camera_plan_problem(config, plan, camera, robot, joint_cols, rng)
     try:
         robot.frame_id(frame)
     except InputError as exc:
         raise InputError(exc.reason, source=config.source, field="plan.frame") from None
-    joint_cols = joint_columns(config.data, robot, config.frames, config.source)
-    joint_names = list(joint_cols)
-    rng = np.random.default_rng(plan.seed if seed is None else seed)
     nominal = ModelState(robot, ParameterSet(), joint_names)
-    screening, candidates = screened_candidates(plan, config.source, robot, nominal, joint_names, frame, rng)
-    problem = candidate_problem(config, plan, robot, joint_cols, candidates)
+    if camera is None:
+        screening, candidates = screened_candidates(plan, config.source, robot, nominal, joint_names, frame, rng)
+        problem = candidate_problem(config, plan, robot, joint_cols, candidates)
     design = DesignMatrix.from_problem(problem)
     candidates = problem.values.copy()      # contact candidates now sit on their (nominal) contact
     validation = random_candidates(robot, joint_names, plan.validation, rng, plan.candidates.margin)
@@ -227,10 +234,17 @@ def summary(plan: Plan) -> str:
         lines.append(f"  predicted {plan.frame} accuracy over {len(plan.validation)} configurations (1 sigma): "
                      f"position mean {acc['mean_position_mm']:.4f} mm, max {acc['max_position_mm']:.4f} mm; "
                      f"orientation mean {acc['mean_orientation_mrad']:.4f} mrad")
-        worst = np.argsort(-plan.parameters.stderr)[:5]
+        names, se = plan.parameters.names, plan.parameters.stderr
+        geometric = [i for i, n in enumerate(names) if plan.param_units.get(n) in ("m", "rad")]
+        worst = sorted(geometric, key=lambda i: -se[i])[:5]
         lines.append("  least certain parameters: " + ", ".join(
-            f"{plan.parameters.names[i]} {plan.parameters.stderr[i] * 1e3:.3g} "
-            f"{'mrad' if plan.param_units.get(plan.parameters.names[i]) == 'rad' else 'mm'}" for i in worst))
+            f"{names[i]} {se[i] * 1e3:.3g} {'mrad' if plan.param_units.get(names[i]) == 'rad' else 'mm'}"
+            for i in worst))
+        other = [i for i in range(len(names)) if i not in geometric]
+        if other:         # a camera's intrinsics: px and unitless distortion terms
+            lines.append("  camera intrinsics: " + ", ".join(
+                f"{names[i]} {se[i]:.3g}{' ' + plan.param_units[names[i]] if plan.param_units.get(names[i]) else ''}"
+                for i in other))
     lines.append("  accuracy curve (poses: mean position mm): " + ", ".join(
         f"{c.n}: {c.prediction.summary()['mean_position_mm']:.4g}" for c in plan.curve))
     return "\n".join(lines)

@@ -24,6 +24,8 @@ from robocal.io.tables import Table, read_csv
 from robocal.model.mjcf import load_mjcf
 from robocal.model.robot import Robot, load_example, load_urdf
 from robocal.residuals import REGISTRY
+from robocal.estimation.camera_block import CameraSetup
+from robocal.workflows.config_camera import block_frame_exists, camera_residual, image_labels
 from robocal.workflows.config_measurements import residual_from_block
 from robocal.workflows.config_read import parse_config, read_config
 from robocal.workflows.config_sections import (apply_parameter_overrides, approach_directions, joint_values,
@@ -45,6 +47,7 @@ class Setup:
     tables: dict[str, Table] = field(default_factory=dict)
     sample_rows: list[tuple[str, int]] = field(default_factory=list)   # (file, data row) of each sample
     joint_columns: dict[str, str] = field(default_factory=dict)
+    cameras: dict[str, CameraSetup] = field(default_factory=dict)      # camera blocks' set-ups, by block name
 
     @property
     def source(self) -> str:
@@ -99,6 +102,9 @@ def build_setup(config: CalibrationConfig, *, table: Table | None = None,
     source, data = config.source, config.data
     robot = build_robot(config.robot, source)
     for m in config.measurements:
+        if m.camera is not None and not robot.model.existFrame(m.frame):
+            block_frame_exists(robot, m)       # the camera set-up adds the frame on attached_to
+            continue
         try:
             robot.frame_id(m.frame)
         except InputError as exc:
@@ -109,9 +115,9 @@ def build_setup(config: CalibrationConfig, *, table: Table | None = None,
     values: list[np.ndarray] = []
     session_of: list[int] = []
     names: list[str] = [s.name for s in data.sessions] if table is None else []
-    residuals = []
+    residuals, cameras = [], {}
     for i, m in enumerate(config.measurements):
-        idx, rows_all = [], []
+        idx, rows_all, labels_of = [], [], []
         for s, tab in block_tables(m, data, table, tables, source):
             rows = block_table_rows(m, tab, None if block_rows is None else block_rows[i], source)
             labels = session_labels(tab, rows, data.session_column) if data.session_column and table is None else None
@@ -125,10 +131,21 @@ def build_setup(config: CalibrationConfig, *, table: Table | None = None,
                     session_of.append(s if labels is None else names.index(labels[n]))
                 idx.append(samples[key])
             rows_all.append((tab, rows))
+            labels_of += image_labels(tab, rows) if m.camera is not None else []
+        if m.camera is not None:
+            cameras[m.name] = camera_residual(robot, m, source, list(joint_cols), np.array([values[k] for k in idx]),
+                                              labels_of, idx, bool(data.sessions or data.session_column))
+            residuals.append(cameras[m.name].residual)
+            continue
         residuals.append(residual_from_block(REGISTRY[m.type], m, source, rows_all, np.array(idx), data.units,
                                              sigma))
     chain = [j for j in joint_cols if j in default_joints(robot, config.frames)]
-    params = parameter_set(config.parameters, robot, chain, source)
+    # a camera block's frame placement is free (its hand-eye), unless the parameters section says otherwise
+    pc = dataclasses.replace(config.parameters, frames={**{c.frame: True for c in cameras.values()},
+                                                        **config.parameters.frames})
+    params = parameter_set(pc, robot, chain, source)
+    for c in cameras.values():
+        params.set_values({n: v for n, v in c.start.items() if n in params})    # the closed form's placement
     directions = approach_directions(data.approach, params, robot, tables, samples, joint_cols, data.joint_units,
                                      source)
     sessions = (Sessions(tuple(names), np.array(session_of), config.parameters.per_session) if len(names) > 1
@@ -136,7 +153,7 @@ def build_setup(config: CalibrationConfig, *, table: Table | None = None,
     problem = Problem(robot, params, list(joint_cols), np.array(values), residuals, directions, sessions)
     apply_parameter_overrides(config.parameters, params, source)
     return Setup(robot, problem, dataclasses.replace(config.solver), config.output.dir, config, tables,
-                 list(samples), joint_cols)
+                 list(samples), joint_cols, cameras)
 
 
 def block_tables(m: MeasurementConfig, data: DataConfig, table: Table | None, tables: dict[str, Table],

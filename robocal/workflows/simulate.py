@@ -24,6 +24,7 @@ import numpy as np
 from robocal.design.simulate import perturb, random_configurations, simulate_measurements
 from robocal.errors import InputError
 from robocal.residuals import REGISTRY
+from robocal.workflows.config_camera import refuse_camera_blocks
 from robocal.workflows.config_read import read_config
 from robocal.workflows.config_sections import is_prismatic
 from robocal.workflows.config_types import SimulationConfig
@@ -38,6 +39,8 @@ def simulate_dataset(config: str | Path, output: str | Path | None = None, seed:
                      force: bool = False) -> list[Path]:
     """Write the synthetic CSV (in the config's data units) and its truth JSON; returns both paths."""
     config = read_config(config)
+    refuse_camera_blocks(config, "simulate", "it writes one CSV, and a camera's corners go to a detections file; "
+                         "simulate them with robocal.design.simulate_detections (examples/camera/simulate_data.py)")
     sim = config.simulation or SimulationConfig()
     seed = sim.seed if seed is None else seed
     rng = np.random.default_rng(seed)

@@ -1,0 +1,109 @@
+"""A `type: camera` block of the calibration config: its keys read and checked, and its residual set up.
+
+    - type: camera
+      name: camera
+      frame: camera               # the camera (eye_in_hand) or the target (eye_to_hand) on the robot
+      attached_to: tool0          # the frame it hangs on (default tool0)
+      mount: eye_in_hand          # or eye_to_hand
+      detections: detections.csv  # sample, corner, u, v[, sigma] (robocal.io.detections)
+      target: {type: checkerboard, corners: [9, 6], square: 0.03}      # robocal.io.camera_target
+      camera: {model: plumb_bob, image_size: [1280, 1024], intrinsics: [fx, fy, cx, cy, k1, k2, p1, p2, k3],
+               free: true, prior: {fx: 5.0}}                            # robocal.residuals.camera_model
+      sigma: 0.3                  # px per corner coordinate (default 0.5)
+      min_corners: 6              # an image with fewer corners is refused
+      world_pose: {xyz: [..], rpy: [..]}   # robocal plan only: the target (camera) in the world
+
+The rows of the joint-readings table the block reads are its images; a detection's `sample` names its row by
+the table's `sample` column, or by the 1-based row number without one. The set-up (camera_setup: checks, PnP,
+closed-form hand-eye) adds the frame to the robot when the robot has none of that name, so it runs before the
+parameters are made; the frame's placement is then free and starts at the closed form (docs/camera.md).
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from robocal.errors import InputError
+from robocal.estimation.camera_block import MIN_CORNERS, CameraSetup, camera_setup
+from robocal.io.camera_target import target_from_dict
+from robocal.io.detections import read_detections
+from robocal.io.tables import Table
+from robocal.residuals.camera_model import camera_spec_from_dict
+from robocal.residuals.reprojection import MOUNTS
+from robocal.workflows.config_keys import Cfg
+from robocal.workflows.config_types import CameraBlockConfig, MeasurementConfig
+
+#: a camera block's sigma when it gives none (px per corner coordinate)
+DEFAULT_SIGMA = 0.5
+#: the joint table's column that labels the images (else the 1-based row number)
+SAMPLE_COLUMN = "sample"
+
+
+def camera_block_config(b: Cfg, base_dir: Path, placement) -> tuple[CameraBlockConfig, float]:
+    """(the camera keys of block `b`, its sigma in px); target and camera mappings checked here (their errors
+    name the key), the detections file when the set-up reads it. placement: config_read's xyz/rpy reader."""
+    mount = b.get("mount", "eye_in_hand", types=str)
+    if mount not in MOUNTS:
+        raise b.error(f"mount must be one of {', '.join(MOUNTS)}, got {mount!r}", "mount")
+    target = b.get("target", required=True, types=dict)
+    target_from_dict(target, b.source, b.where("target"))
+    camera = b.get("camera", required=True, types=dict)
+    camera_spec_from_dict(camera, b.source, b.where("camera"))
+    min_corners = b.get("min_corners", MIN_CORNERS, types=int)
+    if min_corners < 4:
+        raise b.error(f"a target pose needs at least 4 corners, got {min_corners}", "min_corners")
+    sigma = b.get("sigma", DEFAULT_SIGMA, types=(int, float))
+    if not (np.isfinite(sigma) and sigma > 0):
+        raise b.error(f"a pixel sigma must be a positive number, got {sigma!r}", "sigma")
+    detections = b.get("detections", types=str)
+    world = b.child("world_pose")
+    return CameraBlockConfig(b.get("attached_to", "tool0", types=str), mount,
+                             None if detections is None else (base_dir / detections).resolve(), target, camera,
+                             min_corners, None if world.value is None else placement(world)), float(sigma)
+
+
+def block_frame_exists(robot, m: MeasurementConfig) -> None:
+    """A camera block's frame may be one the set-up adds; its attached_to must be on the robot."""
+    try:
+        robot.frame_id(m.camera.attached_to)
+    except InputError as exc:
+        raise InputError(exc.reason, source=exc.source, field=f"{m.path}.attached_to") from None
+
+
+def image_labels(tab: Table, rows) -> list[str]:
+    """The label of each row the block reads: the `sample` column, else the 1-based row number."""
+    if tab.has(SAMPLE_COLUMN):
+        j = tab.header.index(SAMPLE_COLUMN)
+        return [tab.cells[int(r)][j].strip() for r in rows]
+    return [str(int(r) + 1) for r in rows]
+
+
+def camera_residual(robot, m: MeasurementConfig, source: str, joint_names, values: np.ndarray, labels,
+                    sample_ids, sessions: bool) -> CameraSetup:
+    """Set up one camera block over its images: values (N, n_joints) SI, labels, sample_ids in the problem."""
+    cam = m.camera
+    if sessions:
+        raise InputError("a camera block reads one table of joint readings: data.sessions and data.session_column "
+                         "are not supported with it", source=source, field=f"{m.path}.type")
+    if cam.detections is None:
+        raise InputError("required key is missing (the detections CSV: sample, corner, u, v)", source=source,
+                         field=f"{m.path}.detections")
+    if not cam.detections.is_file():
+        raise InputError(f"detections file not found: {cam.detections}", source=source, field=f"{m.path}.detections")
+    det = read_detections(cam.detections)
+    target = target_from_dict(cam.target, source, f"{m.path}.target")
+    spec = camera_spec_from_dict(cam.camera, source, f"{m.path}.camera")
+    return camera_setup(robot, joint_names, values, labels, det, target, spec.model, spec.intrinsics,
+                        mount=cam.mount, frame=m.frame, attached_to=cam.attached_to, name=m.name,
+                        sigma=float(m.sigma), intrinsics_free=spec.free, intrinsics_prior=spec.prior,
+                        min_corners=cam.min_corners, sample_ids=sample_ids)
+
+
+
+def refuse_camera_blocks(config, command: str, why: str) -> None:
+    """InputError naming the first camera block of `config` for a command that cannot take one."""
+    for m in config.measurements:
+        if m.camera is not None:
+            raise InputError(f"robocal {command} does not take camera blocks: {why}", source=config.source,
+                             field=f"{m.path}.type")
