@@ -9,7 +9,7 @@ from robocal.dynamics.channels import Channels, channel_regressor
 from robocal.dynamics.effort_map import EffortMap
 from robocal.dynamics.identified_model import IdentifiedDynamics, predict_torques
 from robocal.dynamics.inertial import parameter_vector
-from robocal.dynamics.log_loading import JointLog, reduce_joint_log
+from robocal.dynamics.log_loading import JointLog, load_joint_log, reduce_joint_log
 from robocal.dynamics.motor_simulation import MotorTerms, excitation, motor_torques, perturbed_model
 from robocal.dynamics.rate_reduction import RateReducer, anti_alias_taps
 from robocal.dynamics.reduced_model import reduced_model
@@ -119,3 +119,15 @@ def test_a_khz_joint_log_without_time_column_is_reduced(tmp_path):
     assert "reduced by 8 to 250 Hz" in choices[0] and np.allclose(np.diff(reduced.t), 1 / 250)
     assert np.allclose(reduced.q, np.column_stack([np.sin(reduced.t), np.cos(2 * reduced.t)]), atol=1e-6)
     assert np.array_equal(raw, (q + 1.0)[np.round(reduced.t * 2000).astype(int)])
+
+
+def test_a_joint_log_without_time_column_takes_its_sample_period(tmp_path):
+    t = np.arange(3000) / 1000.0
+    files = {}
+    for kind, values in (("position", np.sin(t)), ("velocity", np.cos(t)), ("effort", 2 * np.sin(t))):
+        files[kind] = tmp_path / f"{kind}.csv"
+        np.savetxt(files[kind], values[:, None], header=f"- a_{kind}", comments="", fmt="%.17g")
+    log = load_joint_log(files, ["a"], patterns=None, sample_period=0.001)
+    assert np.allclose(log.t, t) and np.allclose(log.effort[:, 0], 2 * np.sin(t))
+    reduced, _, choices = reduce_joint_log(log, 250.0)            # 1 kHz: reduced by 4
+    assert "reduced by 4" in choices[0] and np.allclose(reduced.q[:, 0], np.sin(reduced.t), atol=1e-6)
