@@ -28,11 +28,19 @@ def evaluate_dynamics(folder, log_yaml) -> int:
     over): per-joint RMSE of the identified model's prediction at the log's raw rows."""
     from robocal.workflows.identify_evaluate import evaluate_dynamics as run, write_evaluation
     ev = run(folder, log_yaml)
-    print(f"Identified model of {folder} on {ev.name}: {len(ev.t)} raw rows scored ({ev.rows_total} in the window; "
-          "the filter's trimmed edges left out)")
-    print(f"  {'joint':<20}{'RMSE vs logged':>18}{'RMSE vs filtered':>20}")
+    reduced = ev.choices and ev.choices[0].startswith("log rate") and "reduced by" in ev.choices[0]
+    print(f"Identified model of {folder} on {ev.name}: {len(ev.t)} {'rows' if reduced else 'raw rows'} scored "
+          f"({ev.rows_total} in the window; the filter's trimmed edges left out"
+          + ("; the rows kept by the rate reduction, against their raw readings)" if reduced else ")"))
+    print(f"  {'motor' if ev.joints else 'joint':<20}{'RMSE vs logged':>18}{'RMSE vs filtered':>20}")
+    fmt = ".4g" if ev.joints else ".3f"           # motor torques are small (N m on the motor shaft)
     for j, u, a, b in zip(ev.recorded, ev.units, ev.rmse_logged, ev.rmse_filtered):
-        print(f"  {j:<20}{a:>14.3f} {u:<3}{b:>16.3f} {u:<3}")
+        print(f"  {j:<20}{a:>14{fmt}} {u:<3}{b:>16{fmt}} {u:<3}")
+    if ev.joints:
+        print("The motors' errors mapped to the joints (tau = T^-T tau_m):")
+        print(f"  {'joint':<20}{'RMSE vs logged':>18}{'RMSE vs filtered':>20}")
+        for j, u, a, b in zip(ev.joints, ev.joint_units, ev.joint_rmse_logged, ev.joint_rmse_filtered):
+            print(f"  {j:<20}{a:>14.3f} {u:<3}{b:>16.3f} {u:<3}")
     files = write_evaluation(folder, ev)
     print(f"\nWrote {', '.join(str(f) for f in files.values())}")
     return 0
@@ -40,7 +48,8 @@ def evaluate_dynamics(folder, log_yaml) -> int:
 
 def add_parser(subparsers) -> None:
     p = subparsers.add_parser("identify", help="identify inertial and friction parameters from a joint log "
-                                               "(positions, velocities, efforts; docs/dynamics_tiago.md)")
+                                               "(positions, velocities, efforts; or motor encoders and currents through a "
+                                               "transmission: docs/dynamics_tiago.md, docs/dynamics_motors.md)")
     p.add_argument("config", help="identification YAML (examples/tiago_dynamics/identify.yaml)")
     p.add_argument("-o", "--output", help="output folder (default: the config's output)")
     p.add_argument("--force", action="store_true", help="replace an output folder robocal wrote")

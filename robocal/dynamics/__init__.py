@@ -22,6 +22,7 @@ from robocal.dynamics.payload import payload_inertia, with_payload
 from robocal.dynamics.regulator import TangentialForceRegulator
 from robocal.dynamics.simulator import RobotSimulator, servo_gains
 from robocal.dynamics.stick_slip import StickSlipFriction
+from robocal.dynamics.transmission import Transmission
 from robocal.dynamics.contact_observer import ContactForceObserver, ObserverSettings
 from robocal.dynamics.wrench import WrenchEstimate, WrenchMapper
 
@@ -33,5 +34,5 @@ __all__ = [
     "SplinePath", "project_limits", "TangentialForceRegulator", "MotionParams", "MotionInstruction", "movejf",
     "movelf", "PathGenerator", "Setpoint", "RobotSimulator", "servo_gains", "StickSlipFriction", "ContactForceObserver", "ObserverSettings", "Wall",
     "ViscousLoad", "ConstantForce", "Environment", "FourierTrajectory", "fourier_excitation", "Segment",
-    "identify_dynamics", "identify_payload", "DynamicIdentificationResult", "PayloadResult",
+    "identify_dynamics", "identify_payload", "DynamicIdentificationResult", "PayloadResult", "Transmission",
 ]

@@ -2,9 +2,11 @@
 ratio x motor constant; offset: a constant, e.g. a carried weight the drive's reading leaves out).
 
 The one place where a log's effort signals become the torques the model predicts: the identification and
-the prediction on a new log (identify_predict.py) both go through it, and the identified model's side file
-stores it. A coupled transmission (one motor driving two joints; issue 38) replaces the diagonal scale by a
-matrix from motor efforts to joint torques here, without changing the callers.
+the prediction on a new log (identify_evaluate.py) both go through it, and the identified model's side file
+stores it. Its `recorded` are the fit's channels: recorded joints, or with a transmission the logged motors
+(scale: their torque constants, or 1 for motor torques). A coupled transmission does not turn the efforts into
+joint torques here: the rows stay the motors' (channels.py, where their noise is their own) and the matrix
+enters the regressor (docs/dynamics_motors.md).
 """
 from __future__ import annotations
 

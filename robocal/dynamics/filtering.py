@@ -44,7 +44,8 @@ class SignalOptions:
     decimate: integer factor, None = largest keeping Nyquist >= nyquist_ratio x cut-off;
     velocity_source: 'logged' (filtered logged velocities), 'differentiated' (of filtered positions) or
     'auto' (step 4 of the module docstring);
-    edge_periods: cut-off periods trimmed at each end of the log."""
+    edge_periods: cut-off periods trimmed at each end of the log; max_rate_hz: logs sampled faster are
+    first reduced to at most this rate (rate_reduction.py, kHz logs)."""
 
     cutoff_hz: float | None = None
     power_fraction: float = 0.999
@@ -54,6 +55,7 @@ class SignalOptions:
     nyquist_ratio: float = 2.0
     velocity_source: str = "logged"
     edge_periods: float = 2.0
+    max_rate_hz: float = 250.0
 
     def __post_init__(self):
         if self.velocity_source not in VELOCITY_SOURCES:
@@ -64,6 +66,8 @@ class SignalOptions:
         if self.cutoff_margin < 1 or self.order < 1 or self.nyquist_ratio < 1 or self.edge_periods < 0:
             raise InputError("cutoff_margin, order and nyquist_ratio must be >= 1, edge_periods >= 0",
                              source="config", field="signal")
+        if not self.max_rate_hz > 0:
+            raise InputError("max_rate_hz must be > 0", source="config", field="signal.max_rate_hz")
         if self.decimate is not None and int(self.decimate) < 1:
             raise InputError("decimate must be a positive integer", source="config", field="signal.decimate")
 
@@ -139,17 +143,19 @@ def best_lag(reference: np.ndarray, other: np.ndarray, max_lag: int) -> int:
     return int(np.argmax(scores)) - max_lag
 
 
-def process_log(t: np.ndarray, q: np.ndarray, v: np.ndarray, effort: np.ndarray,
+def process_log(t: np.ndarray, q: np.ndarray, v: np.ndarray | None, effort: np.ndarray,
                 options: SignalOptions | None = None, spectrum_window: tuple[float, float] | None = None
                 ) -> ProcessedLog:
-    """Resample, filter, differentiate, trim and decimate a log (t (T,) s; q, v, effort (T, n)).
+    """Resample, filter, differentiate, trim and decimate a log (t (T,) s; q, v, effort (T, n); v None for a
+    log without velocities, e.g. motor encoders: the differentiated positions stand for them throughout, whatever
+    velocity_source says).
     spectrum_window: the time window, or list of windows, whose spectrum chooses the cut-off (the training
     windows: a choice made on the data the fit sees; default the whole log)."""
     opt = options or SignalOptions()
     grid, dt = uniform_grid(t)
     fs = 1.0 / dt
     qg = CubicSpline(t, q, axis=0)(grid)
-    vg = CubicSpline(t, v, axis=0)(grid)
+    vg = np.gradient(qg, dt, axis=0) if v is None else CubicSpline(t, v, axis=0)(grid)
     eg = np.column_stack([np.interp(grid, t, effort[:, j]) for j in range(effort.shape[1])])
     if opt.cutoff_hz is None:
         windows = None if spectrum_window is None else (
@@ -159,8 +165,9 @@ def process_log(t: np.ndarray, q: np.ndarray, v: np.ndarray, effort: np.ndarray,
         fc, per_joint = spectral_cutoff(vg[inside], fs, opt.power_fraction, opt.cutoff_margin)
         where = "the log" if windows is None else (f"the window {list(windows[0])} s" if len(windows) == 1 else
                                                    "the windows " + ", ".join(str(list(w)) for w in windows) + " s")
+        signal = "logged-velocity" if v is not None else "differentiated-position"
         rule = (f"cut-off {fc:.3g} Hz = {opt.cutoff_margin:g} x the largest frequency holding "
-                f"{100 * opt.power_fraction:g} % of a joint's logged-velocity power over {where} (per joint: "
+                f"{100 * opt.power_fraction:g} % of a joint's {signal} power over {where} (per joint: "
                 + ", ".join(f"{f:.3g}" for f in per_joint) + " Hz; Welch spectrum)")
     else:
         fc = float(opt.cutoff_hz)
@@ -173,9 +180,11 @@ def process_log(t: np.ndarray, q: np.ndarray, v: np.ndarray, effort: np.ndarray,
     if len(grid) <= 4 * trim + 3:
         raise InputError(f"log of {t[-1] - t[0]:.3g} s is too short for a {fc:.3g} Hz filter", field="t")
     keep = slice(trim, len(grid) - trim)
-    check = _velocity_check(v_num[keep], vf[keep], vg[keep], dt)
+    check = {} if v is None else _velocity_check(v_num[keep], vf[keep], vg[keep], dt)
     source = opt.velocity_source
-    if source == "auto":
+    if v is None:
+        source, why = "differentiated", " (the log has no velocities)"
+    elif source == "auto":
         lag = max(abs(x) for x in check["lag_of_logged_s"])
         source = "differentiated" if lag > AUTO_LAG_STEPS * dt else "logged"
         why = (f" (auto: the logged velocities lag the differentiated positions by up to {lag:.3g} s, "

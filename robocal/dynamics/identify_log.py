@@ -1,7 +1,8 @@
 """Dynamic identification of one or more joint logs: filter, choose the optional terms, fit (unconstrained,
 and physically consistent and plausible), validate on held-out windows, estimate the free-motion force.
 
-`identify_log(model, parts, recorded, options, bounds)` returns an `IdentifyResult`. Models compared side
+`identify_log(model, parts, recorded, options, bounds, channels=...)` returns an `IdentifyResult`; its rows are
+the recorded joints' torques, or with a transmission the logged motors' (channels.py). Models compared side
 by side: 'cad' (the URDF's inertias, no friction), 'ols' (base parameters by weighted least squares),
 'consistent' (every body realisable and inside its plausibility bounds, the CAD values as a prior;
 consistent_fit.py, plausible_bounds.py). The optional terms (spring, asymmetric friction, delay) are kept
@@ -16,6 +17,7 @@ import numpy as np
 import pinocchio as pin
 from scipy.stats import chi2
 
+from robocal.dynamics.channels import Channels
 from robocal.dynamics.consistent_fit import ConsistentFit, fit_consistent
 from robocal.dynamics.constraint_cost import ConstraintCost, constraint_costs
 from robocal.dynamics.filtering import SignalOptions
@@ -45,6 +47,7 @@ class IdentifyOptions:
     signal: SignalOptions = field(default_factory=SignalOptions)
     min_motion: float = 0.01
     terms: tuple[str, ...] = EXTRA_TERMS
+    motor_terms: tuple[str, ...] = ()
     candidate_terms: tuple[str, ...] = ()
     delay_max_s: float = 0.2
     coulomb_width: float = 0.05
@@ -62,14 +65,16 @@ class IdentifyOptions:
 @dataclass
 class IdentifyResult:
     """config: the options (a workflow passes its whole config); model: the reduced CAD model; recorded:
-    recorded joint names (model order); parts: the prepared logs (log_parts.py; parts[0].processed is
-    `processed`); joint_terms: {joint: terms in the model}; delays (nr,) s; term_tests: every candidate's
+    the channels' names (recorded joints in model order, or logged motors; channels.py); parts: the prepared
+    logs (log_parts.py; parts[0].processed is `processed`); joint_terms: {joint: terms in the model}, per
+    joint whose equation reaches a row; delays (nr,) s, per channel; term_tests: every candidate's
     test; ols, consistent, prior: the fits; consistent_std: standard errors of [inertial, extra];
     bounds: the plausibility bounds (empty when off); consistency: {body: (smallest pseudo-inertia
     eigenvalue, realisable)}; validation: {model: {'rmse', 'percent_of_range', 'rmse_against_logged'}} on
     the validation windows (empty without one); training_rms; torque_range; within_noise;
     wrench_rms; curves: validation times, measured and predicted torques; constraint_costs; notes: input
-    notes said before any figure; coulomb_width (nr,): the tanh widths used."""
+    notes said before any figure; coulomb_width: the tanh widths used per joint of joint_terms, motor_width
+    per motor channel; channels: what the rows are."""
 
     config: IdentifyOptions
     model: pin.Model
@@ -94,6 +99,8 @@ class IdentifyResult:
     regressors: dict[str, Regressor] = field(repr=False, default_factory=dict)
     notes: list[str] = field(default_factory=list)
     coulomb_width: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    channels: Channels | None = None
+    motor_width: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     @property
     def processed(self):
@@ -112,7 +119,7 @@ class IdentifyResult:
         out = with_parameters(self.model, self.consistent.inertial)
         for value, name in zip(self.consistent.extra, self.consistent_extra_names()):
             joint, term = name.rsplit(".", 1)
-            if term == "armature":
+            if term == "armature" and joint in self.joint_terms:          # a motor's rotor inertia is no joint's
                 out.armature[velocity_index(out, joint)] = value
         return out
 
@@ -126,17 +133,21 @@ class IdentifyResult:
 
 
 def identify_log(model: pin.Model, parts: list[LogPart], recorded: list[str], options: IdentifyOptions,
-                 bounds: list[BodyBound] | None = None, notes: list[str] | None = None) -> IdentifyResult:
+                 bounds: list[BodyBound] | None = None, notes: list[str] | None = None,
+                 channels: Channels | None = None) -> IdentifyResult:
     """Identify `model`'s inertial parameters and joint terms from the logs `parts` (module docstring).
-    recorded: the joints whose torque was logged, in model order (each part's tau in that order);
-    bounds: the plausibility bounds per body (plausible_bounds.body_bounds), None for none; notes: input
-    notes to carry into the result."""
+    recorded: the joints whose torque was logged, in model order (each part's tau in that order), when
+    `channels` is None; channels: the rows (channels.py; with a transmission, the logged motors, each part's tau
+    in their order); bounds: the plausibility bounds per body (plausible_bounds.body_bounds), None for none;
+    notes: input notes to carry into the result."""
     cfg = options
-    rec_idx = [velocity_index(model, j) for j in recorded]
+    channels = channels or Channels.of_joints(model, recorded)
+    recorded = list(channels.names)
     nr = len(recorded)
     candidates = [c for c in cfg.candidate_terms if c != "delay"]
-    prepared = prepare_parts(model, parts, rec_idx, cfg.signal, tuple(dict.fromkeys(cfg.terms + tuple(candidates))),
-                             cfg.coulomb_width)
+    allowed, dropped = channels.joint_terms(model, tuple(dict.fromkeys(cfg.terms + tuple(candidates))))
+    notes = list(notes or []) + dropped
+    prepared = prepare_parts(model, parts, channels, cfg.signal, allowed, cfg.coulomb_width)
     first = prepared[0].processed
     edge = cfg.signal.edge_periods
     first.choices.append(f"training samples within {edge / first.cutoff_hz:.3g} s ({edge:g} cut-off periods) of a "
@@ -152,16 +163,19 @@ def identify_log(model: pin.Model, parts: list[LogPart], recorded: list[str], op
     def tau_train(delays):
         return np.concatenate([p.torque(p.train, delays) for p in prepared])
 
-    def names_for(terms: dict[str, tuple[str, ...]]) -> list[str]:
-        return [f"{j}.{k}" for j in recorded for k in term_columns(terms[j])]
+    motor_names = [f"{m}.{k}" for m in (recorded if channels.motors else []) for k in channels.motor_terms]
 
-    joint_terms = {j: tuple(cfg.terms) for j in recorded}
+    def names_for(terms: dict[str, tuple[str, ...]]) -> list[str]:
+        return [f"{j}.{k}" for j in terms for k in term_columns(terms[j])] + motor_names
+
+    joint_terms = {model.names[_joint_of(model, j)]: tuple(t for t in cfg.terms if t in allowed[j]) for j in allowed}
+    candidate_pairs = [(model.names[_joint_of(model, j)], c) for j in allowed for c in candidates if c in allowed[j]]
     delays = np.zeros(nr)
     ols = fit_base(full_train.columns(names_for(joint_terms)), tau_train(delays), inflation=inflation)
     if ols.selection.rank == 0:
         raise InputError("the training window identifies no parameter", source=cfg.source, field="windows.train")
-    tests, delays = _choose_terms(cfg, prepared, full_train, recorded, candidates, joint_terms, names_for, tau_train,
-                                  inflation)
+    tests, delays = _choose_terms(cfg, prepared, full_train, recorded, candidate_pairs, joint_terms, names_for,
+                                  tau_train, inflation)
     names = names_for(joint_terms)
     reg_train = full_train.columns(names)
     tau_tr = tau_train(delays)
@@ -188,10 +202,17 @@ def identify_log(model: pin.Model, parts: list[LogPart], recorded: list[str], op
         measured = np.concatenate([p.torque(m, delays) for p, m in checks])
         logged = np.concatenate([p.logged(m, delays) for p, m in checks])
         validation, t_range, curves = validate(predict, reg_check, measured, logged)
+        joint_names, joint_idx, to_joints = channels.joint_map(model)
+        if channels.motors:                 # the motors' errors mapped to the joints they determine
+            for k in MODELS:
+                errors = np.sqrt(np.mean(((curves[k] - measured) @ to_joints) ** 2, axis=0))
+                validation[k]["rmse_joints"] = dict(zip(joint_names, errors.tolist()))
         curves["t"] = np.concatenate([p.t[m] for p, m in checks])
         q_check = np.concatenate([p.processed.decimated(p.processed.q)[m] for p, m in checks])
-        wrench = wrench_rms(cfg.wrench_frame, cfg.source, model, q_check, rec_idx,
-                            {k: curves[k] for k in MODELS}, measured)
+        if joint_idx:                      # joint torques the channels determine (all with joint channels)
+            joint = (lambda x: x @ to_joints) if channels.motors else (lambda x: x)
+            wrench = wrench_rms(cfg.wrench_frame, cfg.source, model, q_check, joint_idx,
+                                {k: joint(curves[k]) for k in MODELS}, joint(measured))
     consistency = {b: (float(np.linalg.eigvalsh(pseudo_inertia(p))[0]), is_physically_consistent(p))
                    for b, p in zip(body_names, consistent.inertial.reshape(-1, 10))}
     within = _within_noise(reg_train, tau_tr, ols, consistent, base_values_of(ols.selection, consistent.params),
@@ -203,16 +224,20 @@ def identify_log(model: pin.Model, parts: list[LogPart], recorded: list[str], op
     costs = constraint_costs(reg_train, tau_tr, ols.sigma, cad, weakest, body_names, noise_unit, linear)
     return IdentifyResult(options, model, recorded, prepared, joint_terms, delays, tests, ols, consistent, std, prior,
                           list(bounds or []), consistency, validation, training_rms, t_range, within, wrench, curves,
-                          costs, {"train": reg_train, **({"check": reg_check} if checks else {})}, list(notes or []),
-                          prepared[0].coulomb_width)
+                          costs, {"train": reg_train, **({"check": reg_check} if checks else {})}, notes,
+                          prepared[0].coulomb_width, channels, prepared[0].motor_width)
 
 
-def _choose_terms(cfg, prepared, full_train, recorded, candidates, joint_terms, names_for, tau_train, inflation):
+def _joint_of(model: pin.Model, idx_v: int) -> int:
+    return next(j for j in range(1, model.njoints) if model.joints[j].idx_v == idx_v)
+
+
+def _choose_terms(cfg, prepared, full_train, recorded, pairs, joint_terms, names_for, tau_train, inflation):
     """term_selection.py's tests, in an order that keeps one term's misfit from passing for another's: the
     added columns with no delay, then the delays in the model with the columns found, then the columns again
-    with those delays (their final decision). Adds the kept terms to joint_terms; (tests, delays)."""
+    with those delays (their final decision). pairs: (joint, candidate) tried; recorded: the channels (a delay
+    each). Adds the kept terms to joint_terms; (tests, delays)."""
     delays = np.zeros(len(recorded))
-    pairs = [(j, c) for j in recorded for c in candidates]
     columns = {(j, c): full_train.X[:, full_train.names.index(f"{j}.{ADDED_COLUMN[c]}")] for j, c in pairs}
 
     def column_tests(delays):

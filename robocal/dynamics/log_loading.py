@@ -3,7 +3,9 @@
 Each file has a time column (s) and one column per joint named by a pattern such as
 `- {joint}_position` (the ROS joint_states export). The time stamps may be irregular but must be
 strictly increasing and identical row by row across the three files: a mismatch is refused, naming
-the file, row and field, rather than silently re-aligned. See docs/dynamics_tiago.md.
+the file, row and field, rather than silently re-aligned. A log without a time column gives its sample
+period instead (row k at k x period). A log faster than signal.max_rate_hz is reduced to it
+(`reduce_joint_log`, rate_reduction.py). See docs/dynamics_tiago.md and docs/dynamics_motors.md.
 """
 from __future__ import annotations
 
@@ -13,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from robocal.dynamics.rate_reduction import RateReducer, describe, reduction_factor
 from robocal.io.tables import read_csv
 from robocal.errors import InputError
 
@@ -20,6 +23,8 @@ KINDS = ("position", "velocity", "effort")
 DEFAULT_PATTERNS = {kind: f"- {{joint}}_{kind}" for kind in KINDS}
 #: time stamps of two files that differ by more than this (s) are different samples
 TIME_TOLERANCE = 1e-9
+#: the largest relative departure of a time step from the log's median step when the log is reduced
+STEP_TOLERANCE = 0.01
 
 
 @dataclass
@@ -42,10 +47,11 @@ class JointLog:
 
 
 def load_joint_log(files: dict[str, str | Path], joints: list[str], time_column: str = "t",
-                   patterns: dict[str, str] | None = None) -> JointLog:
+                   patterns: dict[str, str] | None = None, sample_period: float | None = None) -> JointLog:
     """Read the position, velocity and effort files (`files` keyed by KINDS) for `joints`.
 
-    patterns: column name per kind with a `{joint}` placeholder (DEFAULT_PATTERNS otherwise).
+    patterns: column name per kind with a `{joint}` placeholder (DEFAULT_PATTERNS otherwise); sample_period
+    (s): the files have no time column, row k is at k x sample_period.
     Raises InputError naming the file, row and column for a missing column, a non-number, time
     stamps that do not increase, or time stamps that differ between the files.
     """
@@ -54,7 +60,11 @@ def load_joint_log(files: dict[str, str | Path], joints: list[str], time_column:
     if missing:
         raise InputError(f"no file given for {', '.join(missing)}", source="config", field="data")
     tables = {kind: read_csv(files[kind]) for kind in KINDS}
-    times = {kind: tables[kind].column(time_column) for kind in KINDS}
+    if sample_period is not None:
+        times = {kind: np.arange(tables[kind].n_rows) * float(sample_period) for kind in KINDS}
+        time_column = "sample_period_s"
+    else:
+        times = {kind: tables[kind].column(time_column) for kind in KINDS}
     reference = "position"
     t = times[reference]
     _check_increasing(t, tables[reference], time_column)
@@ -106,3 +116,31 @@ def _check_increasing(t: np.ndarray, table, field: str) -> None:
         i = int(bad[0]) + 1
         raise InputError(f"time stamp {t[i]!r} does not increase (previous {t[i - 1]!r})", source=str(table.path),
                          row=table.line(i), field=field)
+
+
+def reduce_joint_log(log: JointLog, max_rate_hz: float, block: int = 8192) -> tuple[JointLog, np.ndarray | None,
+                                                                                   list[str]]:
+    """(the log at most max_rate_hz, the raw efforts at its rows or None when not reduced, what was done). A
+    reduced log needs a uniform rate: a step off the median by more than STEP_TOLERANCE is refused (row)."""
+    steps = np.diff(log.t)
+    period = float(np.median(steps))
+    factor = reduction_factor(1.0 / period, max_rate_hz)
+    if factor == 1:
+        return log, None, []
+    off = np.flatnonzero(np.abs(steps - period) > STEP_TOLERANCE * period)
+    if off.size:
+        raise InputError(f"time step {steps[off[0]] * 1e3:.4g} ms differs from the log's {period * 1e3:.4g} ms by more "
+                         f"than {100 * STEP_TOLERANCE:g} %: reducing a kHz log needs a uniform rate (a dropped or "
+                         "repeated sample?)", source=log.files["position"], row=int(off[0]) + 3, field="t")
+    n = log.q.shape[1]
+    values = np.column_stack([log.t, log.q, log.v, log.effort])
+    reducer = RateReducer(factor, [0] + list(range(1 + 2 * n, values.shape[1])))
+    for start in range(0, len(values), block):
+        reducer.push(values[start:start + block])
+    rows, out, raw = reducer.finish()
+    if len(rows) < 3:
+        raise InputError(f"{len(log.t)} rows leave {len(rows)} after the rate reduction's edges: too short",
+                         source=log.files["position"], field="t")
+    reduced = JointLog(raw[:, 0], out[:, 1:1 + n], out[:, 1 + n:1 + 2 * n], out[:, 1 + 2 * n:], log.joints, log.files,
+                       log.unused_efforts)
+    return reduced, raw[:, 1:], [describe(factor, 1.0 / period, len(log.t), len(rows), block)]

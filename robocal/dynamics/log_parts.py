@@ -7,8 +7,9 @@ the same log listed twice with other windows) give one fit. Every part goes thro
 cut-off is the largest the spectral rule (filtering.py) gives over the parts' training windows. Each part
 keeps its own grid and decimation. Training samples of a part closer to one of its validation windows than
 the filter's reach are left out (the zero-phase filter would carry validation data into them).
-Motor-side logs (transmissions, kHz rates; issue 38) add their signals to a part, and the map from motor
-to joint torques replaces `tau`; the windows and the rest stay as they are.
+A motor-side log (docs/dynamics_motors.md) is a part too: its joint positions come from the motor encoders
+through the transmission (no velocities), its `tau` holds the logged motors' torques, and the rows are the
+motors' equations (channels.py); a log reduced from kHz rates carries the raw readings at its rows in `tau_raw`.
 """
 from __future__ import annotations
 
@@ -17,24 +18,29 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import pinocchio as pin
 
+from robocal.dynamics.channels import Channels, channel_regressor
 from robocal.dynamics.filtering import ProcessedLog, SignalOptions, parallel_filter, process_log
 from robocal.dynamics.log_loading import JointLog
 from robocal.dynamics.reduced_model import model_columns
-from robocal.dynamics.regression import Regressor, build_regressor
+from robocal.dynamics.regression import Regressor
 
 Window = tuple[float, float]
 
 
 @dataclass
 class LogPart:
-    """log: the joint log; tau (T, nr): the recorded joints' torques (N m, N) at log.t; train, validate:
-    lists of windows (s, log time); name: how messages call it."""
+    """log: the joint log; tau (T, nr): the channels' torques (recorded joints' or logged motors'; N m, N) at
+    log.t; train, validate: lists of windows (s, log time); name: how messages call it; tau_raw: the raw
+    readings at log.t when `tau` went through a rate reduction's anti-alias filter (None: tau is raw);
+    choices: what was done to the log before (the rate reduction), said first in the signal processing."""
 
     log: JointLog
     tau: np.ndarray
     train: list[Window]
     validate: list[Window] = field(default_factory=list)
     name: str = "log"
+    tau_raw: np.ndarray | None = None
+    choices: list[str] = field(default_factory=list)
 
 
 @dataclass
@@ -49,6 +55,7 @@ class PreparedPart:
     train: np.ndarray
     check: np.ndarray
     coulomb_width: np.ndarray
+    motor_width: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     def torque(self, mask: np.ndarray, delays: np.ndarray) -> np.ndarray:
         """Filtered torques (n, nr) at the decimated samples of `mask`, joint k's read delays[k] s later
@@ -64,7 +71,8 @@ class PreparedPart:
     def logged(self, mask: np.ndarray, delays: np.ndarray) -> np.ndarray:
         """The logged torques themselves (no filter), linearly interpolated to the same times."""
         log, t = self.part.log, self.t[mask]
-        return np.column_stack([np.interp(t + d, log.t, self.part.tau[:, k]) for k, d in enumerate(delays)])
+        tau = self.part.tau if self.part.tau_raw is None else self.part.tau_raw
+        return np.column_stack([np.interp(t + d, log.t, tau[:, k]) for k, d in enumerate(delays)])
 
 
 def within(t: np.ndarray, windows: list[Window]) -> np.ndarray:
@@ -86,11 +94,11 @@ def common_cutoff(parts: list[LogPart], model: pin.Model, signal: SignalOptions)
                       .format(max(cut)) + ", ".join(f"{c:.3g}" for c in cut) + " Hz)")
 
 
-def prepare_parts(model: pin.Model, parts: list[LogPart], rec_idx: list[int], signal: SignalOptions,
-                  columns_terms: tuple[str, ...], coulomb_width: float) -> list[PreparedPart]:
-    """Filter every part, build its regressor with every column of `columns_terms` (parallel filtering,
-    decimation) and its masks. The Coulomb tanh width: coulomb_width x each recorded joint's RMS speed over
-    all training samples."""
+def prepare_parts(model: pin.Model, parts: list[LogPart], channels: Channels, signal: SignalOptions,
+                  joint_terms: dict[int, tuple[str, ...]], coulomb_width: float) -> list[PreparedPart]:
+    """Filter every part, build its regressor with every column of `joint_terms` ({velocity index: terms}) and
+    the channels' motor terms (parallel filtering, decimation) and its masks. The Coulomb tanh width:
+    coulomb_width x each term joint's (and each motor channel's) RMS speed over all training samples."""
     fc, why = common_cutoff(parts, model, signal)
     opts = replace(signal, cutoff_hz=fc)
     procs = []
@@ -99,18 +107,25 @@ def prepare_parts(model: pin.Model, parts: list[LogPart], rec_idx: list[int], si
                            model_columns(model, p.log.joints, p.log.v), p.tau, opts, spectrum_window=p.train)
         if why:
             proc.choices[1] = why
+        proc.choices[:0] = p.choices
         procs.append(proc)
-    speeds = np.concatenate([proc.v[within(proc.t, p.train)][:, rec_idx] for p, proc in zip(parts, procs)])
+    term_joints = channels.term_joints()
+    train = [(proc, within(proc.t, p.train)) for p, proc in zip(parts, procs)]
+    speeds = np.concatenate([proc.v[m][:, term_joints] for proc, m in train])
     width = coulomb_width * np.sqrt(np.mean(speeds ** 2, axis=0))
+    motor_width = np.zeros(0)
+    if channels.motors:
+        rates = np.concatenate([channels.motor_kinematics(proc.q[m], proc.v[m], proc.a[m])[1] for proc, m in train])
+        motor_width = coulomb_width * np.sqrt(np.mean(rates ** 2, axis=0))
     out = []
     for p, proc in zip(parts, procs):
-        reg = build_regressor(model, proc.q, proc.v, proc.a, rec_idx, columns_terms, width, replace=False).transformed(
-            lambda X, proc=proc: parallel_filter(proc, X))
+        reg = channel_regressor(model, proc.q, proc.v, proc.a, channels, joint_terms, width, motor_width,
+                                replace=False).transformed(lambda X, proc=proc: parallel_filter(proc, X))
         t = proc.decimated(proc.t)
         guard = signal.edge_periods / proc.cutoff_hz
         near = [(a - guard, b + guard) for a, b in p.validate]
         out.append(PreparedPart(p, proc, reg, t, within(t, p.train) & ~within(t, near), within(t, p.validate),
-                                width))
+                                width, motor_width))
     return out
 
 

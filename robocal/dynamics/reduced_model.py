@@ -32,8 +32,10 @@ def reduced_model(urdf: Path, joints: list[str]) -> pin.Model:
 def velocity_index(model: pin.Model, name: str) -> int:
     return model.joints[model.getJointId(name)].idx_v
 
-def model_columns(model: pin.Model, names: list[str], values: np.ndarray) -> np.ndarray:
-    """Log columns in `names` order -> (T, nv) in the model's joint order."""
+def model_columns(model: pin.Model, names: list[str], values: np.ndarray | None) -> np.ndarray | None:
+    """Log columns in `names` order -> (T, nv) in the model's joint order (None stays None: a log without them)."""
+    if values is None:
+        return None
     out = np.zeros((len(values), model.nv))
     for k, name in enumerate(names):
         out[:, velocity_index(model, name)] = values[:, k]

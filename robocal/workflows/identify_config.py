@@ -7,8 +7,10 @@ Keys (paths relative to the YAML; units SI, torques in N m or N for prismatic jo
            columns: optional {position|velocity|effort: pattern with {joint}} (default `- {joint}_position`,
            ...); train: [t0, t1] or a list of such windows (s, log time); validate: the same (optional: a
            log may only train, or only validate); name (optional). The same files may be listed twice
-           with other windows. (Motor-side signals, issue 38, add kinds to a log entry and a transmission
-           section beside `effort`; a log entry keeps its windows.)
+           with other windows; sample_period_s: the rows' period when the log has no time column.
+           With a transmission a log is motor-side: position (motor encoders) and effort (motor currents or
+           torques) only, columns patterns with {motor} (default `{motor}_position`, `{motor}_effort`; one
+           file may hold both).
   data:    one log (position, velocity, effort, time_column, columns) with windows: train, validate:
            the single-log form of `logs` (either logs or data, not both)
   windows: min_motion (rad or m): the least position range a recorded joint must cover in the training
@@ -16,11 +18,16 @@ Keys (paths relative to the YAML; units SI, torques in N m or N for prismatic jo
   effort:  recorded: joints whose effort was logged (the others stay in the model, give no rows);
            gear_ratio, motor_constant: {joint: value}: torque = effort x gear_ratio x motor_constant
            + torque_offset; torque_offset: {joint: value} a constant added to that torque (e.g. a
-           torso whose effort excludes the weight it carries: + g x carried mass)
+           torso whose effort excludes the weight it carries: + g x carried mass). With a transmission:
+           recorded only, the motors whose efforts were logged (default: all)
+  transmission: the motors and the motor-to-joint map q = T m + c (motors, ratio, coupling or matrix,
+           offset, effort: current|torque, motor_constant): robocal.dynamics.transmission_config
   signal:  cutoff_hz (auto), power_fraction, cutoff_margin, order, decimate (auto),
-           velocity_source (logged|differentiated|auto), edge_periods: see filtering.py
+           velocity_source (logged|differentiated|auto), edge_periods: see filtering.py; max_rate_hz
+           (default 250): faster logs are first reduced to at most this rate (rate_reduction.py)
   model:   terms: always in the model, subset of [coulomb, viscous, offset, armature, spring,
-           coulomb_asymmetric, viscous_asymmetric]; candidate_terms: tried per recorded joint and kept
+           coulomb_asymmetric, viscous_asymmetric]; motor_terms: with a transmission, per logged motor, subset
+           of [coulomb, viscous, offset, armature] (default none); candidate_terms: tried per recorded joint and kept
            when the training data show them (spring, coulomb_asymmetric, viscous_asymmetric, delay;
            term_selection.py); delay_max_s: the largest delay tried (s); coulomb_width: the width of the
            tanh standing for sign(v), as a fraction of each joint's RMS speed over the training samples;
@@ -38,8 +45,11 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from robocal.dynamics.channels import MOTOR_TERMS
 from robocal.dynamics.identify_log import IdentifyOptions
 from robocal.dynamics.plausible_bounds import MARGIN_M, MASS_RATIO, check_ellipsoids
+from robocal.dynamics.transmission import Transmission
+from robocal.dynamics.transmission_config import transmission_from_config
 from robocal.io.yaml_files import read_yaml
 from robocal.workflows.config_keys import Cfg
 from robocal.dynamics.prior_weight import DEFAULT_GRID, RULES
@@ -48,17 +58,19 @@ from robocal.dynamics.regression import EXTRA_TERMS, REPLACES, TERMS
 from robocal.dynamics.term_selection import CANDIDATES
 from robocal.errors import InputError
 
-TOP_KEYS = ("robot", "logs", "data", "effort", "signal", "windows", "model", "wrench", "output")
+TOP_KEYS = ("robot", "logs", "data", "effort", "transmission", "signal", "windows", "model", "wrench", "output")
 SIGNAL_KEYS = ("cutoff_hz", "power_fraction", "cutoff_margin", "order", "decimate", "nyquist_ratio",
-               "velocity_source", "edge_periods")
-LOG_KEYS = ("name", "position", "velocity", "effort", "time_column", "columns", "train", "validate")
-MODEL_KEYS = ("terms", "candidate_terms", "delay_max_s", "coulomb_width", "prior_rule", "prior_grid",
-              "prior_split", "plausible")
+               "velocity_source", "edge_periods", "max_rate_hz")
+LOG_KEYS = ("name", "position", "velocity", "effort", "time_column", "sample_period_s", "columns", "train",
+            "validate")
+MODEL_KEYS = ("terms", "motor_terms", "candidate_terms", "delay_max_s", "coulomb_width", "prior_rule",
+              "prior_grid", "prior_split", "plausible")
 
 
 @dataclass
 class LogSpec:
-    """One log of the config: files {kind: path}, time_column, column patterns, its windows (lists of
+    """One log of the config: files {kind: path} (position, velocity, effort; a motor-side log position and
+    effort), time_column or sample_period (s, no time column), column patterns, its windows (lists of
     (t0, t1) s) and a name for messages."""
 
     files: dict[str, Path]
@@ -67,6 +79,7 @@ class LogSpec:
     time_column: str = "t"
     patterns: dict[str, str] = field(default_factory=dict)
     name: str = "log"
+    sample_period: float | None = None
 
 
 @dataclass(kw_only=True)
@@ -80,6 +93,7 @@ class IdentifyConfig(IdentifyOptions):
     torque_scale: dict[str, float]
     torque_offset: dict[str, float] = field(default_factory=dict)
     output: Path | None = None
+    transmission: Transmission | None = None
 
 
 def load_identify_config(path_or_dict, base_dir: str | Path | None = None) -> IdentifyConfig:
@@ -95,19 +109,30 @@ def load_identify_config(path_or_dict, base_dir: str | Path | None = None) -> Id
     root.check_keys(TOP_KEYS)
     robot, effort = root.child("robot"), root.child("effort")
     robot.check_keys(("urdf", "joints"))
-    effort.check_keys(("recorded", "gear_ratio", "motor_constant", "torque_offset"))
     joints = _names(robot, "joints")
     windows = root.child("windows", {})
-    logs = _logs(root, windows, base)
-    recorded = _names(effort, "recorded")
-    for name in recorded:
-        if name not in joints:
-            raise effort.error(f"'{name}' is not one of robot.joints", "recorded")
-    gear, kmotor = _per_joint(effort, "gear_ratio", recorded), _per_joint(effort, "motor_constant", recorded)
-    offsets = effort.get("torque_offset", {}, types=dict)
-    for name in offsets:
-        if name not in recorded:
-            raise effort.error(f"'{name}' is not a recorded joint", "torque_offset")
+    motor_side = root.get("transmission") is not None
+    logs = _logs(root, windows, base, motor_side)
+    if motor_side:
+        effort = root.child("effort", {})
+        effort.check_keys(("recorded",))           # gear ratios and constants are the transmission's
+        recorded = _names(effort, "recorded") if effort.get("recorded") is not None else None
+        transmission = transmission_from_config(root.get("transmission"), joints, recorded, source)
+        recorded = recorded or list(transmission.motors)
+        gear = kmotor = {m: 1.0 for m in recorded}
+        offsets = {}
+    else:
+        effort.check_keys(("recorded", "gear_ratio", "motor_constant", "torque_offset"))
+        transmission = None
+        recorded = _names(effort, "recorded")
+        for name in recorded:
+            if name not in joints:
+                raise effort.error(f"'{name}' is not one of robot.joints", "recorded")
+        gear, kmotor = _per_joint(effort, "gear_ratio", recorded), _per_joint(effort, "motor_constant", recorded)
+        offsets = effort.get("torque_offset", {}, types=dict)
+        for name in offsets:
+            if name not in recorded:
+                raise effort.error(f"'{name}' is not a recorded joint", "torque_offset")
     signal = root.child("signal", {})
     signal.check_keys(SIGNAL_KEYS)
     opts = dict(signal.value or {})
@@ -118,6 +143,11 @@ def load_identify_config(path_or_dict, base_dir: str | Path | None = None) -> Id
     model.check_keys(MODEL_KEYS)
     wrench.check_keys(("frame",))
     terms, candidates = _terms(model)
+    motor_terms = tuple(model.get("motor_terms", [], types=list))
+    for t in motor_terms:
+        if t not in MOTOR_TERMS or not motor_side:
+            raise model.error(f"unknown motor term '{t}'; known: {', '.join(MOTOR_TERMS)}" if motor_side else
+                              "motor terms need a transmission section (motor-side logs)", "motor_terms")
     plausible = _plausible(model.child("plausible", {}), joints)
     out = root.get("output")
     try:
@@ -126,7 +156,8 @@ def load_identify_config(path_or_dict, base_dir: str | Path | None = None) -> Id
             logs=logs, recorded=recorded, torque_scale={j: gear[j] * kmotor[j] for j in recorded},
             torque_offset={str(k): float(v) for k, v in offsets.items()}, signal=SignalOptions(**opts),
             min_motion=float(windows.get("min_motion", 0.01, types=(int, float))),
-            terms=terms, candidate_terms=candidates, delay_max_s=model.number("delay_max_s", 0.2, positive=True),
+            terms=terms, motor_terms=motor_terms, transmission=transmission,
+            candidate_terms=candidates, delay_max_s=model.number("delay_max_s", 0.2, positive=True),
             coulomb_width=float(model.get("coulomb_width", 0.05, types=(int, float))),
             prior_grid=tuple(float(x) for x in model.get("prior_grid", list(DEFAULT_GRID), types=list)),
             prior_split=float(model.get("prior_split", 0.75, types=(int, float))),
@@ -147,13 +178,14 @@ def load_identify_config(path_or_dict, base_dir: str | Path | None = None) -> Id
     return cfg
 
 
-def _logs(root: Cfg, windows: Cfg, base: Path) -> list[LogSpec]:
-    """`logs:` entries, or the single-log form `data:` + `windows:`; windows checked (held out, in order)."""
+def _logs(root: Cfg, windows: Cfg, base: Path, motor_side: bool = False) -> list[LogSpec]:
+    """`logs:` entries, or the single-log form `data:` + `windows:`; windows checked (held out, in order).
+    motor_side: the logs hold motor positions and efforts (no velocity file)."""
     if root.get("logs") is not None and root.get("data") is not None:
         raise root.error("give either logs (a list) or data (one log), not both", "data")
     if root.get("logs") is None:
         data = root.child("data")
-        data.check_keys(("position", "velocity", "effort", "time_column", "columns"))
+        data.check_keys(("position", "velocity", "effort", "time_column", "sample_period_s", "columns"))
         windows.check_keys(("train", "validate", "min_motion"))
         entries = [(data, {**data.value, "train": windows.get("train", required=True),
                            "validate": windows.get("validate")}, windows)]
@@ -169,7 +201,16 @@ def _logs(root: Cfg, windows: Cfg, base: Path) -> list[LogSpec]:
             entries.append((c, entry, c))
     out = []
     for i, (c, entry, wc) in enumerate(entries):
-        files = {k: base / str(c.get(k, required=True, types=str)) for k in ("position", "velocity", "effort")}
+        kinds = ("position", "effort") if motor_side else ("position", "velocity", "effort")
+        if motor_side and c.get("velocity") is not None:
+            raise c.error("a motor-side log holds motor positions and efforts: velocities are differentiated from "
+                          "the encoders", "velocity")
+        files = {k: base / str(c.get(k, required=True, types=str)) for k in kinds}
+        period = c.get("sample_period_s")
+        if period is not None:
+            period = c.number("sample_period_s", 0.0, positive=True)
+            if c.get("time_column") is not None:
+                raise c.error("give time_column or sample_period_s, not both", "sample_period_s")
         train = _windows(wc, "train", entry.get("train"))
         validate = _windows(wc, "validate", entry.get("validate"))
         for a in train:
@@ -179,7 +220,7 @@ def _logs(root: Cfg, windows: Cfg, base: Path) -> list[LogSpec]:
                                    "validate")
         out.append(LogSpec(files, train, validate, str(c.get("time_column", "t", types=str)),
                            {str(k): str(v) for k, v in c.get("columns", {}, types=dict).items()},
-                           str(entry.get("name", f"log {i + 1}"))))
+                           str(entry.get("name", f"log {i + 1}")), period))
     _check_reuse(out, root)
     return out
 

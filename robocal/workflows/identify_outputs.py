@@ -27,7 +27,8 @@ def result_dict(res: IdentifyResult, urdf: tuple | None = None) -> dict:
     bodies = res.model.names[1:]
     return {
         "config": res.config.source,
-        "recorded_joints": res.recorded,
+        **({"logged_motors": res.recorded, "transmission": res.channels.transmission.to_dict()}
+           if res.channels is not None and res.channels.motors else {"recorded_joints": res.recorded}),
         "torque_units": torque_units(res),
         "signal_processing": {"choices": proc.choices, "cutoff_hz": proc.cutoff_hz, "grid_rate_hz": proc.fs_raw,
                               "decimation": proc.decimation, "velocity_check": proc.velocity_check},
@@ -38,7 +39,8 @@ def result_dict(res: IdentifyResult, urdf: tuple | None = None) -> dict:
         "findings": findings(res),
         "terms": {"per_joint": {j: list(t) for j, t in res.joint_terms.items()},
                   "delay_s": dict(zip(res.recorded, res.delays.tolist())),
-                  "coulomb_width": dict(zip(res.recorded, res.coulomb_width.tolist())),
+                  "coulomb_width": dict(zip(res.joint_terms, res.coulomb_width.tolist()))
+                  | (dict(zip(res.recorded, res.motor_width.tolist())) if res.motor_width.size else {}),
                   "tests": [vars(t) for t in res.term_tests]},
         "plausible_bounds": [{"joint": b.joint, "cad_mass_kg": b.cad_mass, "mass_range_kg": b.mass_range,
                               "ellipsoid_center_m": b.center.tolist(), "ellipsoid_semi_axes_m": b.semi_axes.tolist(),

@@ -9,7 +9,7 @@ from robocal.dynamics.constraint_cost import MEASURABLE_COST
 from robocal.dynamics.identified_model import SIDE_FILE
 from robocal.dynamics.identify_log import MODELS, IdentifyResult
 from robocal.dynamics.inertial import parameter_vector
-from robocal.workflows.identify_urdf import identified_urdf_entry, torque_units, urdf_of
+from robocal.workflows.identify_urdf import identified_urdf_entry, joint_unit, torque_units, urdf_of
 
 LABELS = {"cad": "CAD (URDF)", "ols": "OLS base parameters", "consistent": "physically consistent"}
 
@@ -30,11 +30,14 @@ def summary_text(res: IdentifyResult, d: dict | None = None) -> str:
     lines += ["", "Signal processing:"]
     lines += [f"  - {c}" for c in res.processed.choices]
     vc = res.processed.velocity_check
-    idx = [res.model.joints[res.model.getJointId(j)].idx_v for j in res.recorded]
-    lines.append("  - logged vs differentiated velocities (recorded joints): RMS difference "
-                 + ", ".join(f"{vc['rms_differentiated_minus_logged'][i]:.3g}" for i in idx)
-                 + "; logged velocities lag by " + ", ".join(f"{vc['lag_of_logged_s'][i]:.3g}" for i in idx) + " s")
+    idx = [res.model.joints[res.model.getJointId(j)].idx_v for j in res.joint_terms]
+    if vc:
+        lines.append("  - logged vs differentiated velocities (recorded joints): RMS difference "
+                     + ", ".join(f"{vc['rms_differentiated_minus_logged'][i]:.3g}" for i in idx)
+                     + "; logged velocities lag by " + ", ".join(f"{vc['lag_of_logged_s'][i]:.3g}" for i in idx)
+                     + " s")
     lines.append("")
+    lines += transmission_lines(res)
     for p in res.parts:
         lines.append(f"{p.part.name}: training {[list(w) for w in p.part.train]} s ({int(p.train.sum())} samples), "
                      f"validation {[list(w) for w in p.part.validate] or 'none'} s ({int(p.check.sum())} samples, "
@@ -46,6 +49,7 @@ def summary_text(res: IdentifyResult, d: dict | None = None) -> str:
               + grid_edge_note(res.prior),
               "Every body's pseudo-inertia PSD: " + str(all(v[1] for v in res.consistency.values())),
               *body_mass_lines(res)]
+    lines += motor_term_lines(res)
     lines += validation_lines(res, units)
     wn = res.within_noise
     lines += [f"Training: the consistent fit's base parameters lie at squared distance "
@@ -53,7 +57,8 @@ def summary_text(res: IdentifyResult, d: dict | None = None) -> str:
               f"{wn['base_parameters']} base parameters: {wn['chi2_95']:.4g}; the filtered noise's correlation "
               f"across samples inflates variances by {wn['noise_inflation']:.3g}); per-joint RMS "
               "ratio to OLS " + ", ".join(f"{r:.3f}" for r in wn["rms_ratio"]) + ".",
-              within_noise_verdict(wn)] + constraint_cost_lines(res.constraint_costs, dict(zip(res.recorded, units)),
+              within_noise_verdict(wn)] + constraint_cost_lines(res.constraint_costs, {n: joint_unit(res.model, n) for n in
+                                                                           list(res.joint_terms) + res.recorded},
                                                                  min(res.prior.grid))
     if res.wrench_rms:
         lines += ["", f"External force at {res.wrench_rms['frame']} during free motion (validation windows), RMS per "
@@ -75,28 +80,69 @@ def validation_lines(res: IdentifyResult, units: list[str]) -> list[str]:
     if not res.validation:
         return ["", "No validation window: held-out figures come from `robocal evaluate OUTPUT_DIR LOG.yaml` on "
                     "another log (or list a validation window in the config)."]
-    lines = ["", "Held-out torque RMSE per joint against the low-pass filtered torque (% of the joint's torque "
-                 "range in the windows):", f"  {'model':24s}" + "".join(f"{j:>22s}" for j in res.recorded)]
+    motors = res.channels is not None and res.channels.motors
+    fmt = "10.4g" if motors else "10.3f"                # motor torques are small (N m on the motor shaft)
+    lines = ["", f"Held-out torque RMSE per {'motor' if motors else 'joint'} against the low-pass filtered torque (% "
+                 "of its torque range in the windows):", f"  {'model':24s}" + "".join(f"{j:>22s}" for j in res.recorded)]
     for m in MODELS:
         v = res.validation[m]
-        lines.append(f"  {LABELS[m]:24s}" + "".join(f"{r:10.3f} {u:3s} ({p:5.1f} %)"
+        lines.append(f"  {LABELS[m]:24s}" + "".join(f"{r:{fmt}} {u:3s} ({p:5.1f} %)"
                                                         for r, u, p in zip(v["rmse"], units, v["percent_of_range"])))
     ratio = np.array(res.validation["consistent"]["rmse"]) / np.array(res.validation["ols"]["rmse"])
     lines.append("  consistent / OLS: " + ", ".join(f"{r:.3f}" for r in ratio))
     lines.append("Against the logged torque itself (no filter: independent of the cut-off, the target to compare "
                  "other tools on):")
     for m in MODELS:
-        lines.append((f"  {LABELS[m]:24s}" + "".join(f"{r:10.3f} {u:3s}         "
+        lines.append((f"  {LABELS[m]:24s}" + "".join(f"{r:{fmt}} {u:3s}         "
                                                          for r, u in zip(res.validation[m]["rmse_against_logged"],
                                                                          units))).rstrip())
     logged_ratio = (np.array(res.validation["consistent"]["rmse_against_logged"])
                     / np.array(res.validation["ols"]["rmse_against_logged"]))
-    return lines + ["  consistent / OLS: " + ", ".join(f"{r:.3f}" for r in logged_ratio)]
+    lines += ["  consistent / OLS: " + ", ".join(f"{r:.3f}" for r in logged_ratio)]
+    joints = res.validation["consistent"].get("rmse_joints")
+    if joints:
+        lines += ["The same errors mapped to the joints (tau = T^-T tau_m; joints whose torque needs only logged "
+                  "motors), against the filtered torque:", f"  {'model':24s}" + "".join(f"{j:>22s}" for j in joints)]
+        for m in MODELS:
+            lines.append(f"  {LABELS[m]:24s}" + "".join(f"{r:10.4g} {joint_unit(res.model, j):3s}         "
+                                                        for j, r in res.validation[m]["rmse_joints"].items()).rstrip())
+    return lines
+
+
+def transmission_lines(res: IdentifyResult) -> list[str]:
+    """What the rows are when the logs are motor-side."""
+    if res.channels is None or not res.channels.motors:
+        return []
+    tr = res.channels.transmission
+    coupled = [j for j, row in zip(tr.joints, tr.matrix) if np.count_nonzero(row) > 1]
+    return [f"Motor-side logs: {len(tr.motors)} motors to {len(tr.joints)} joints through q = T m + c (coupled joints: "
+            f"{', '.join(coupled) or 'none'}; condition number of T {np.linalg.cond(tr.matrix):.3g}); the fit's rows "
+            f"are the logged motors' torques ({', '.join(res.recorded)}), tau_m = T^T tau + each motor's own terms.",
+            ""]
+
+
+def motor_term_lines(res: IdentifyResult) -> list[str]:
+    """Each logged motor's terms in the consistent fit, with their standard errors."""
+    if res.channels is None or not res.channels.motors or not res.channels.motor_terms:
+        return []
+    names = res.consistent_extra_names()
+    std = dict(zip(names, res.consistent_std[res.consistent.inertial.size:]))
+    value = dict(zip(names, res.consistent.extra))
+    units = {"coulomb": "N m", "viscous": "N m s/rad", "offset": "N m", "armature": "kg m^2"}
+    lines = ["Motor terms (consistent fit, +- standard error; on the motor shaft; armature = rotor inertia; * not a "
+             "base parameter on its own, the data see it only with a body's inertia: its value is the prior's split):"]
+    for motor in res.recorded:
+        lines.append(f"  {motor}: " + ", ".join(
+            f"{k} {value[f'{motor}.{k}']:.4g} +- {std[f'{motor}.{k}']:.2g} {units[k]}"
+            + ("" if f"{motor}.{k}" in res.ols.names else " *") for k in res.channels.motor_terms))
+    return lines
 
 
 def term_lines(res: IdentifyResult, units: list[str]) -> list[str]:
     """The terms in the model per joint and the candidates' tests (term_selection.py)."""
-    lines = ["Model terms per recorded joint: " + "; ".join(f"{j} {', '.join(t)}" for j, t in res.joint_terms.items())]
+    with_terms = {j: t for j, t in res.joint_terms.items() if t}
+    lines = ["Model terms per recorded joint: " + ("; ".join(f"{j} {', '.join(t)}" for j, t in with_terms.items())
+                                                   or "none")]
     if res.term_tests:
         kept = [t for t in res.term_tests if t.kept]
         lines.append(f"Candidate terms tried on the training samples: {len(res.term_tests)}; kept (residual fall above "

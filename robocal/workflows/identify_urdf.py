@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from robocal.dynamics.filtering import SignalOptions
 from robocal.dynamics.identified_model import IdentifiedDynamics
 from robocal.dynamics.identify_log import IdentifyResult
 from robocal.dynamics.inertial import parameter_vector
@@ -15,9 +16,15 @@ from robocal.workflows.identify import effort_map_of
 
 
 def torque_units(res: IdentifyResult) -> list[str]:
-    """N for a prismatic recorded joint, N m for a revolute one."""
-    return ["N" if res.model.joints[res.model.getJointId(j)].shortname().startswith("JointModelP") else "N m"
-            for j in res.recorded]
+    """Per channel: N for a prismatic recorded joint, N m for a revolute one or a motor."""
+    return [joint_unit(res.model, j) for j in res.recorded]
+
+
+def joint_unit(model, name: str) -> str:
+    """N for a prismatic joint, N m for a revolute one or a motor (a name that is no joint)."""
+    if not model.existJointName(name):
+        return "N m"
+    return "N" if model.joints[model.getJointId(name)].shortname().startswith("JointModelP") else "N m"
 
 
 def urdf_of(res: IdentifyResult) -> tuple[str, bytes | None, list[str]]:
@@ -39,24 +46,35 @@ def urdf_of(res: IdentifyResult) -> tuple[str, bytes | None, list[str]]:
     return name, data, reasons
 
 
-def joint_term_values(res: IdentifyResult) -> dict[str, dict[str, float]]:
-    """{joint: {column kind: consistent value}}."""
-    out: dict[str, dict[str, float]] = {j: {} for j in res.recorded}
+def joint_term_values(res: IdentifyResult, motors: bool = False) -> dict[str, dict[str, float]]:
+    """{joint: {column kind: consistent value}} for the joints with terms, or with motors=True {motor: ...} for
+    the logged motors of a motor-side identification."""
+    if motors:
+        owners = list(res.recorded) if res.channels is not None and res.channels.motors else []
+    else:
+        owners = list(res.joint_terms)
+    out: dict[str, dict[str, float]] = {j: {} for j in owners}
     for value, name in zip(res.consistent.extra, res.consistent_extra_names()):
-        joint, kind = name.rsplit(".", 1)
-        out[joint][kind] = float(value)
+        owner, kind = name.rsplit(".", 1)
+        if owner in out:
+            out[owner][kind] = float(value)
     return out
 
 
 def side_file(res: IdentifyResult, urdf_name: str) -> IdentifiedDynamics:
     """What URDF cannot hold (identified_model.py), for `robocal evaluate` and any reader."""
     cfg, proc = res.config, res.processed
+    motor_side = res.channels is not None and res.channels.motors
+    widths = dict(zip(res.joint_terms, res.coulomb_width.tolist())) | (
+        dict(zip(res.recorded, res.motor_width.tolist())) if motor_side else {})
+    signal = {"cutoff_hz": float(proc.cutoff_hz), "order": int(proc.order), "velocity_source": proc.velocity_source,
+              "edge_periods": float(cfg.signal.edge_periods)}
+    if motor_side or cfg.signal.max_rate_hz != SignalOptions.max_rate_hz:
+        signal["max_rate_hz"] = float(cfg.signal.max_rate_hz)
     return IdentifiedDynamics(
         urdf_name, list(cfg.joints), effort_map_of(cfg, res.recorded), joint_term_values(res),
-        {j: float(w) for j, w in zip(res.recorded, res.coulomb_width)},
-        {j: float(d) for j, d in zip(res.recorded, res.delays)},
-        {"cutoff_hz": float(proc.cutoff_hz), "order": int(proc.order), "velocity_source": proc.velocity_source,
-         "edge_periods": float(cfg.signal.edge_periods)})
+        {j: float(w) for j, w in widths.items()}, {j: float(d) for j, d in zip(res.recorded, res.delays)}, signal,
+        res.channels.transmission if motor_side else None, joint_term_values(res, motors=True))
 
 
 def identified_urdf_entry(urdf: tuple) -> dict:
