@@ -7,6 +7,9 @@ from robocal.estimation.cross_validation import (RANGE_MARGIN, CVTable, CrossVal
                                                  edge_folds, kfold, posture_groups, range_excess)
 from robocal.estimation.identifiability import BaseSelection, covariance, select_base_parameters
 from robocal.estimation.iso9283 import iso9283_figures
+from robocal.estimation.model_criteria import (Criteria, HeldOut, Linearised, ModelEvidence, approximate_loo,
+                                               information_criteria, inside_others, linearise, log_evidence,
+                                               nominal_evidence)
 from robocal.estimation.model_selection import Rung, Selection, ladder, one_standard_error
 from robocal.estimation.parallel_map import map_tasks, monte_carlo
 from robocal.estimation.problem import Problem
@@ -15,6 +18,8 @@ from robocal.estimation.prediction_errors import BlockErrors, PointStats, norm_e
 
 __all__ = ["CalibrationOptions", "RANGE_MARGIN", "CVTable", "CrossValidation", "cross_validate", "cv_table",
            "edge_folds", "kfold", "posture_groups", "range_excess", "BaseSelection", "covariance",
-           "select_base_parameters", "iso9283_figures", "Rung", "Selection", "ladder", "one_standard_error",
+           "select_base_parameters", "iso9283_figures", "Criteria", "HeldOut", "Linearised", "ModelEvidence",
+           "approximate_loo", "information_criteria", "inside_others", "linearise", "log_evidence", "nominal_evidence",
+           "Rung", "Selection", "ladder", "one_standard_error",
            "map_tasks", "monte_carlo", "Problem", "CalibrationResult", "BlockErrors", "PointStats", "norm_errors",
            "point_stats", "term_errors"]
