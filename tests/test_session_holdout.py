@@ -2,53 +2,20 @@
 simulated UR5 measured in two sessions with the tracker placed differently in each."""
 import numpy as np
 import pytest
-import yaml
 
-from robocal import load_example
-from robocal.design.simulate import random_configurations
 from robocal.estimation.calibrate import calibrate
 from robocal.estimation.model_selection import one_standard_error
 from robocal.estimation.session_holdout import (held_out_figure, leave_one_session_out, score_session,
                                                 session_norms)
-from robocal.model.kinematics import ModelState
 from robocal.workflows.evaluate import setup_for_data
-from validation_cases import JOINTS, SIGMA, truth_params
-
-COMPLIANT = ("shoulder_lift_joint", "elbow_joint")
-# the second session's tracker: 0.3 m and 0.2 rad away from the first's
-BASES = (np.zeros(6), np.array([0.3, -0.2, 0.1, 0.2, -0.1, 0.15]))
-
-
-def _sessions(folder, c, n=36):
-    """Two sessions of one UR5 (placement errors of 0.5 mm / 0.5 mrad; shoulder and elbow compliance c) seen by
-    a tracker at one flange point, 50 um noise, the tracker placed per BASES. Returns the config path."""
-    rng = np.random.default_rng(11)
-    robot = load_example("ur5")
-    truth = truth_params(robot, rng, compliance={j: c for j in COMPLIANT})
-    for k, base in enumerate(BASES):
-        for comp, v in zip(("tx", "ty", "tz", "rx", "ry", "rz"), base):
-            truth[f"base.{comp}"].value = v
-        values = random_configurations(robot, JOINTS, n, rng)
-        ms = ModelState(robot, truth, JOINTS)
-        pts = np.array([ms.sample(v).pose("tool0").translation for v in values]) + rng.normal(0, SIGMA, (n, 3))
-        rows = [",".join(JOINTS + ["x", "y", "z"])] + [",".join(repr(float(x)) for x in list(v) + list(p))
-                                                        for v, p in zip(values, pts)]
-        (folder / f"session{k + 1}.csv").write_text("\n".join(rows) + "\n")
-    cfg = folder / "config.yaml"
-    cfg.write_text(yaml.safe_dump({
-        "robot": {"example": "ur5"}, "data": {"csv": "session1.csv", "joints": JOINTS},
-        "parameters": {"preset": "full", "base": True, "compliance": list(COMPLIANT)},
-        "measurements": [{"type": "point", "name": "tracker", "frame": "tool0", "columns": ["x", "y", "z"],
-                          "sigma": SIGMA}]}))
-    return cfg
-
+from validation_cases import BASES, SIGMA, write_sessions
 
 def _problems(cfg, parameters=None):
     return [setup_for_data(cfg, f"session{k}.csv", parameters).problem for k in (1, 2)]
 
 
 def test_score_session_refits_the_moved_tracker_and_keeps_the_robot(tmp_path):
-    cfg = _sessions(tmp_path, 4e-5)
+    cfg = write_sessions(tmp_path, 4e-5)
     first, second = _problems(cfg)
     calibrate(first)
     errors = score_session(first.params, second)["tracker"]
@@ -71,7 +38,7 @@ def test_leave_one_session_out_picks_compliance_only_when_the_robot_has_it(tmp_p
     # 4e-5 rad/(N m) under the UR5's 20-60 N m shoulder and elbow loads bends them by 1-2 mrad (about 1 mm at the
     # flange, 20 times the noise): the model without compliance predicts the other session worse by far.
     # Without it, the extra parameters cost within a standard error and the rule keeps the simpler model.
-    cfg = _sessions(tmp_path, c)
+    cfg = write_sessions(tmp_path, c)
     figures = []
     for parameters in ({"compliance": False}, None):
         figures.append(held_out_figure(session_norms(leave_one_session_out(_problems(cfg, parameters)))))
@@ -84,7 +51,7 @@ def test_leave_one_session_out_picks_compliance_only_when_the_robot_has_it(tmp_p
 
 
 def test_leave_one_session_out_needs_two_sessions_and_a_joint_fit_for_three(tmp_path):
-    cfg = _sessions(tmp_path, 0.0, n=12)
+    cfg = write_sessions(tmp_path, 0.0, n=12)
     small = {"preset": "offsets", "compliance": False}
     problems = _problems(cfg, small)
     with pytest.raises(ValueError, match="two or more"):

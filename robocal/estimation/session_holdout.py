@@ -66,11 +66,14 @@ def leave_one_session_out(sessions: list[Problem], options: CalibrationOptions |
 
 def held_out_figure(norms: np.ndarray) -> tuple[float, float]:
     """(RMS, its standard error) of held-out error norms, the standard error by the delta method on the mean
-    square over the points (d sqrt(x) = dx / (2 sqrt(x)))."""
+    square over the points (d sqrt(x) = dx / (2 sqrt(x))). NaN norms are left out; an infinite one (a point
+    nothing predicts) makes the RMS infinite."""
     v = np.asarray(norms, float)
-    v = v[np.isfinite(v)]
+    v = v[~np.isnan(v)]
     if not len(v):
         return float("nan"), float("nan")
+    if not np.all(np.isfinite(v)):
+        return float("inf"), float("inf")
     ms = float(np.mean(v ** 2))
     se = float(np.std(v ** 2, ddof=1) / np.sqrt(len(v))) if len(v) > 1 else float("nan")
     return float(np.sqrt(ms)), se / (2 * np.sqrt(ms)) if ms > 0 else float("nan")
