@@ -235,7 +235,7 @@ def real_table(rows: list[dict]) -> list[str]:
         lines.append(f"| rung | free | train | LOO | 5-fold | closed-form LOO | evidence | "
                      + " | ".join(t.removeprefix("target ") for t in tg) + " | status |")
         lines.append("|---" * (8 + len(tg)) + "|")
-        marks = {pick(recs, c): c for c in ("loo", "kfold", "aloo", "evidence")}
+        marks = {c: pick(recs, c) for c in ("loo", "kfold", "aloo", "bic", "evidence")}
         rule = rule_pick(recs)
         for k, r in enumerate(recs):
             label = r["rung"].split(": ", 1)[1] + (" **(rule)**" if k == rule else "")
@@ -244,7 +244,7 @@ def real_table(rows: list[dict]) -> list[str]:
                 for c in ("train", "loo", "kfold", "aloo", "evidence")) + " | "
                 + " | ".join(f"{r[t]:.2f}" for t in tg) + f" | {r['status']} |")
         lines.append("criteria's picks: " + "; ".join(f"{c}: {recs[k]['rung'].split(': ', 1)[1]}"
-                                                      for k, c in marks.items() if k is not None)
+                                                      for c, k in marks.items() if k is not None)
                      + f"; rule: {recs[rule]['rung'].split(': ', 1)[1]}")
         lines.append("")
     return lines
