@@ -49,3 +49,32 @@ def write_case(folder, rng, n=40, compliance=None, spread=None, parameters=None,
               "output": {"dir": "out", "report": False}}
     (folder / "config.yaml").write_text(yaml.safe_dump(config))
     return folder / "config.yaml", truth, values
+
+
+COMPLIANT = ("shoulder_lift_joint", "elbow_joint")
+# the second session's tracker: 0.3 m and 0.2 rad away from the first's
+BASES = (np.zeros(6), np.array([0.3, -0.2, 0.1, 0.2, -0.1, 0.15]))
+
+
+def write_sessions(folder, c, n=36):
+    """Two sessions of one UR5 (placement errors of 0.5 mm / 0.5 mrad; shoulder and elbow compliance c) seen by
+    a tracker at one flange point, 50 um noise, the tracker placed per BASES. Returns the config path."""
+    rng = np.random.default_rng(11)
+    robot = load_example("ur5")
+    truth = truth_params(robot, rng, compliance={j: c for j in COMPLIANT})
+    for k, base in enumerate(BASES):
+        for comp, v in zip(("tx", "ty", "tz", "rx", "ry", "rz"), base):
+            truth[f"base.{comp}"].value = v
+        values = random_configurations(robot, JOINTS, n, rng)
+        ms = ModelState(robot, truth, JOINTS)
+        pts = np.array([ms.sample(v).pose("tool0").translation for v in values]) + rng.normal(0, SIGMA, (n, 3))
+        rows = [",".join(JOINTS + ["x", "y", "z"])] + [",".join(repr(float(x)) for x in list(v) + list(p))
+                                                        for v, p in zip(values, pts)]
+        (folder / f"session{k + 1}.csv").write_text("\n".join(rows) + "\n")
+    cfg = folder / "config.yaml"
+    cfg.write_text(yaml.safe_dump({
+        "robot": {"example": "ur5"}, "data": {"csv": "session1.csv", "joints": JOINTS},
+        "parameters": {"preset": "full", "base": True, "compliance": list(COMPLIANT)},
+        "measurements": [{"type": "point", "name": "tracker", "frame": "tool0", "columns": ["x", "y", "z"],
+                          "sigma": SIGMA}]}))
+    return cfg

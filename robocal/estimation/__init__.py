@@ -10,7 +10,12 @@ from robocal.estimation.cross_validation import (RANGE_MARGIN, CVTable, CrossVal
                                                  edge_folds, kfold, posture_groups, range_excess)
 from robocal.estimation.identifiability import BaseSelection, covariance, select_base_parameters
 from robocal.estimation.iso9283 import iso9283_figures
+from robocal.estimation.model_criteria import (Criteria, HeldOut, Linearised, ModelEvidence, approximate_loo,
+                                               information_criteria, inside_others, linearise, log_evidence,
+                                               nominal_evidence)
 from robocal.estimation.model_selection import Rung, Selection, ladder, one_standard_error
+from robocal.estimation.session_holdout import (held_out_figure, leave_one_session_out, score_session,
+                                                session_norms)
 from robocal.estimation.parallel_map import map_tasks, monte_carlo
 from robocal.estimation.problem import Problem
 from robocal.estimation.result import CalibrationResult
@@ -20,6 +25,9 @@ __all__ = ["CalibrationOptions", "CameraSetup", "camera_problem", "camera_setup"
            "camera_summary",
            "RANGE_MARGIN", "CVTable", "CrossValidation", "cross_validate", "cv_table",
            "edge_folds", "kfold", "posture_groups", "range_excess", "BaseSelection", "covariance",
-           "select_base_parameters", "iso9283_figures", "Rung", "Selection", "ladder", "one_standard_error",
+           "select_base_parameters", "iso9283_figures", "Criteria", "HeldOut", "Linearised", "ModelEvidence",
+           "approximate_loo", "information_criteria", "inside_others", "linearise", "log_evidence", "nominal_evidence",
+           "Rung", "Selection", "ladder", "one_standard_error", "held_out_figure", "leave_one_session_out",
+           "score_session", "session_norms",
            "map_tasks", "monte_carlo", "Problem", "CalibrationResult", "BlockErrors", "PointStats", "norm_errors",
            "point_stats", "term_errors"]

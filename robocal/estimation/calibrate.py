@@ -46,6 +46,8 @@ class CalibrationOptions:
     xtol: float = 1e-12
     gtol: float = 1e-10
     regularisation: str = "auto"     # auto: a physically scaled prior where the data leave a direction loose | none
+    prior_strength: float | None = None   # auto with a given strength (physical scales, e.g. chosen by held-out
+                                     # error: robocal.estimation.model_selection); None: the evidence chooses it
     determined_length: float = DETERMINED_LENGTH   # m: standard error below which a length is determined
     determined_angle: float = DETERMINED_ANGLE     # rad: the same for an angle
     register_before: bool = True     # "before" figures after registering the nominal model (else: as given)
@@ -73,7 +75,8 @@ def calibrate(problem: Problem, options: CalibrationOptions | None = None,
     if not np.all(np.isfinite(ev0.r)):
         raise IdentifiabilityError(f"{source}: the residuals are not finite at the initial parameters")
     registered = register_nominal(problem, opt) if opt.register_before or opt.regularisation == "auto" else None
-    default_prior = (apply_default_prior(problem, registered, scales, opt.rank_rtol, opt.chunk_terms)
+    default_prior = (apply_default_prior(problem, registered, scales, opt.rank_rtol, opt.chunk_terms,
+                                         opt.prior_strength)
                      if opt.regularisation == "auto" else DefaultPrior("none", False))
     evaluate, chunked = evaluator(problem, opt.chunk_terms)   # chunked: J is only ever its triangle
     ev0 = evaluate()                   # after the registration: the layout of the full free set, with any prior

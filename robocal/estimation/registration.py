@@ -55,6 +55,9 @@ class DefaultPrior:
             return "Default prior: none (solver.regularisation: none)."
         if not self.applied:
             return f"Default prior: not needed ({self.reason})."
+        if self.noise_ratio is None:      # a given strength: no evidence was computed
+            return (f"Default prior: given to the {len(self.names)} robot parameters without a prior of their own, "
+                    f"sigma = {self.strength:.3g} x physical scale ({self.reason}).")
         return (f"Default prior: given to the {len(self.names)} robot parameters without a prior of their own, "
                 f"sigma = {self.strength:.3g} x physical scale (chosen by the {self.method}; measured noise "
                 f"{self.noise_ratio:.3g} x stated sigma); {self.reason}.")
@@ -129,14 +132,24 @@ def register_nominal(problem, options) -> Registered:
 
 
 def apply_default_prior(problem, registered: Registered, scales, rtol: float,
-                        chunk_terms: int | None = None) -> DefaultPrior:
+                        chunk_terms: int | None = None, strength: float | None = None) -> DefaultPrior:
     """Add the evidence-scaled physical prior to the kept robot parameters if the data leave one loose.
-    chunk_terms: as CalibrationOptions.chunk_terms (robocal.estimation.chunked_lstsq.evaluator)."""
+    chunk_terms: as CalibrationOptions.chunk_terms (robocal.estimation.chunked_lstsq.evaluator).
+    strength: a given strength (physical scales) instead: the prior goes on every robot parameter without one,
+    centred on its value, whatever the data determine (the choice was made elsewhere, e.g. by held-out error)."""
     params = problem.params
     free = params.free_names
     candidates = {n for n in free if n in scales.scale and params[n].prior_sigma is None}
     if not candidates:
         return DefaultPrior("auto", False, reason="no robot parameter without a prior")
+    if strength is not None:
+        if not (np.isfinite(strength) and strength > 0):
+            raise ValueError(f"prior strength must be a positive number of physical scales, got {strength}")
+        names = [n for n in free if n in candidates]
+        for n in names:
+            params[n].prior_sigma, params[n].prior_mean = strength * scales.scale[n], params[n].value
+        return DefaultPrior("auto", True, float(strength), None, names, [],
+                            reason="strength given (chosen by held-out error)", method="given strength")
     start = params.values()
     warm = copy.deepcopy(problem.warm_starts)
     try:

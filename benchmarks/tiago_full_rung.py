@@ -1,0 +1,88 @@
+"""Why robocal's full model on point BL predicted worse than FIGAROH 1.0.2's full_params, and the full rung the
+selection rule gives (issue 32, part 2; docs/tiago_mocap.md "The full rung against FIGAROH").
+
+    OMP_NUM_THREADS=1 python benchmarks/tiago_full_rung.py
+
+Every model is examples/tiago_mocap/full_bl.yaml (base frame, BL's position on the tool, every joint's offset and
+6D placement error), fitted on the training session; BL's norm RMS (mm) on training, its closed-form
+leave-one-out, and on the validation session with the training session's tracker frame ("kept") and with the
+tracker frame refitted there ("refit"):
+- robocal's selection at the config's start (BL guessed at the tool frame's origin, on arm_7's axis);
+- the same selection made at the registered nominal (BL where the registration puts it);
+- FIGAROH's 30 parameters (the set its structural selection keeps on Linux, from its own run:
+  benchmarks/figaroh/calibration_driver.py in 'script' mode), every other parameter held at nominal;
+- the selection rule's full rung (docs/validation.md): the default prior at the strength of the grid with the
+  lowest closed-form leave-one-out error by posture.
+"""
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+from robocal import calibrate  # noqa: E402
+from robocal.estimation import model_criteria as mc  # noqa: E402
+from robocal.estimation.model_selection import STRENGTH_GRID, rung_by_postures  # noqa: E402
+from robocal.estimation.registration import register_nominal  # noqa: E402
+from robocal.estimation.session_holdout import score_session  # noqa: E402
+from robocal.workflows import setup_for_data  # noqa: E402
+
+CONFIG = ROOT / "examples" / "tiago_mocap" / "full_bl.yaml"
+VALIDATION = ROOT / "examples" / "tiago_mocap" / "data" / "qualisys_2021-11-26_static_postures.csv"
+# FIGAROH 1.0.2's full_params set on this data (Linux), in robocal's names: d_p* -> t*, d_phix/y -> rx/ry,
+# d_phiz (the rotation about a joint's own z axis) -> offset; its base (6) and marker (3) are base.* and BL.point.*
+FIGAROH_SET = ["arm_1_joint.ry", "arm_2_joint.tx", "arm_2_joint.rx", "arm_2_joint.offset", "arm_3_joint.tx",
+               "arm_3_joint.ty", "arm_3_joint.tz", "arm_3_joint.rx", "arm_4_joint.ty", "arm_4_joint.rx",
+               "arm_4_joint.ry", "arm_4_joint.offset", "arm_5_joint.tx", "arm_5_joint.ty", "arm_5_joint.tz",
+               "arm_5_joint.ry", "arm_5_joint.offset", "arm_6_joint.ty", "arm_6_joint.tz", "arm_6_joint.ry",
+               "arm_7_joint.tx"]
+
+
+def scores(parameters, setup, result) -> dict:
+    """Training, closed-form leave-one-out and validation figures of a fitted `setup` (its `parameters`)."""
+    block = setup.problem.residuals[0].name
+    lin = mc.linearise(setup.problem)
+    _, train = mc.norms(lin, lin.r[lin.data] / lin.scale[lin.data])
+    _, loo = mc.held_out_norms(setup.problem)
+    fitted = setup.problem.params
+    kept = score_session(fitted, setup_for_data(CONFIG, VALIDATION, parameters).problem, per_session=())
+    refit = score_session(fitted, setup_for_data(CONFIG, VALIDATION, parameters).problem, options=setup.options)
+    return {"free": len(result.params.free_names), "status": result.status, "train": mc.rms(train),
+            "loo": mc.rms(loo), "kept": kept[block].point_stats(0).rmse_norm,
+            "refit": refit[block].point_stats(0).rmse_norm}
+
+
+def fit(parameters=None, regularisation="none", strength=None):
+    setup = setup_for_data(CONFIG, parameters=parameters)
+    setup.options.regularisation, setup.options.prior_strength = regularisation, strength
+    return parameters, setup, calibrate(setup.problem, setup.options)
+
+
+def main() -> None:
+    start = setup_for_data(CONFIG)
+    reg = register_nominal(start.problem, start.options).values
+    figure = rung_by_postures(lambda: setup_for_data(CONFIG).problem, start.options, STRENGTH_GRID)
+    rows = [("robocal, selection at the config's start (published full_bl)", fit()),
+            ("robocal, selection at the registered nominal", fit({"initial": reg})),
+            ("FIGAROH 1.0.2's 30 parameters, fitted by robocal",
+             fit({"fix": ["*"], "free": ["base.*", "BL.point.*"] + FIGAROH_SET})),
+            ("robocal default prior (strength by the evidence)", fit(regularisation="auto")),
+            (f"selection rule: strength {figure.strength} (closed-form LOO by posture)",
+             fit(regularisation="auto" if figure.strength is not None else "none", strength=figure.strength))]
+    print("| model | free | status | train | closed-form LOO | validation, tracker kept | validation, tracker refit |")
+    print("|---|---|---|---|---|---|---|")
+    for label, (parameters, setup, result) in rows:
+        f = scores(parameters, setup, result)
+        print(f"| {label} | {f['free']} | {f['status']} | {f['train']:.2f} | {f['loo']:.2f} | {f['kept']:.2f} | "
+              f"{f['refit']:.2f} |")
+    first, second = rows[0][1][2], rows[1][1][2]
+    print("\nselection at the registered nominal adds: "
+          + ", ".join(sorted(set(second.params.free_names) - set(first.params.free_names))))
+    print("the rule's strength grid (closed-form LOO by posture, mm): "
+          + ", ".join(f"{s}: {v:.2f}" for s, v, _ in figure.per_strength))
+    print(f"default prior of the evidence: strength {rows[3][1][2].default_prior.strength:.3g}")
+
+
+if __name__ == "__main__":
+    main()
