@@ -5,11 +5,13 @@ full set plus each non-geometric kind the config itself asks for (compliance, ba
 time in that order. Every rung is scored on held-out data; the choice follows the one-standard-error rule: the
 simplest rung whose held-out norm RMS is within one standard error of the best.
 
-The held-out figure (issue 32's study, docs/validation.md "Choosing a model"): with two or more sessions,
-leave-one-session-out (`rung_by_sessions`: each session predicted by the robot fitted on the others, its
-per-session frames refitted there); with one session, the closed-form leave-one-out by posture of the
-linearised fit (`rung_by_postures`). Each rung's prior strength is chosen on `STRENGTH_GRID` by the same figure
-(lowest), in place of the evidence that `calibrate` uses on its own.
+The held-out figure `robocal select` uses (docs/validation.md "Choosing a model", and the study behind it):
+with two or more sessions, leave-one-session-out (each session predicted by the robot fitted jointly on the
+others, its per-session frames registered there: robocal.estimation.cross_validation.cv_table on session folds);
+with one session, the closed-form leave-one-out by posture of each rung's linearised fit (`closed_form_cv`: no
+refits), each rung at the prior `calibrate` chooses for it. The study also tried choosing each rung's prior
+strength on a grid by the same figure (`rung_by_postures`, `rung_by_sessions` with `STRENGTH_GRID`): rejected by
+the TIAGo sessions (docs/validation.md), kept for the study's benchmarks.
 """
 from __future__ import annotations
 
@@ -21,6 +23,7 @@ import numpy as np
 from robocal.estimation.calibrate import CalibrationOptions, calibrate
 from robocal.estimation.cross_validation import CVTable
 from robocal.estimation.model_criteria import held_out_norms
+from robocal.estimation.prediction_errors import primary_errors, term_errors
 from robocal.estimation.problem import Problem
 from robocal.estimation.session_holdout import held_out_figure, leave_one_session_out, session_norms
 
@@ -141,6 +144,16 @@ def rung_by_sessions(make_sessions: Callable[[], list[Problem]], options: Calibr
         errors = leave_one_session_out(make_sessions(), o, per_session, joint)
         per.append((strength, *held_out_figure(session_norms(errors))))
     return _best(per, "leave-one-session-out")
+
+
+def closed_form_cv(problem: Problem, folds: list[np.ndarray]) -> CVTable:
+    """The closed-form leave-one-out of a fitted problem over `folds` (whole postures) as a CV table: held-out
+    and training RMS of the error norm with the held-out standard error over the points (no refits)."""
+    _, held = held_out_norms(problem, folds)
+    rms, se = held_out_figure(held)
+    _, train, _ = primary_errors(term_errors(problem))
+    unit = "mm" if any(u == "length" for r in problem.residuals for u in r.row_units) else "mrad"
+    return CVTable(unit, [], rms, se, float(np.sqrt(np.mean(train ** 2))) if len(train) else float("nan"))
 
 
 def choose_rung(figures: list[RungFigure | None]) -> tuple[int, int]:

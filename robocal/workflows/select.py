@@ -8,8 +8,9 @@ from pathlib import Path
 import numpy as np
 
 from robocal.errors import InputError
-from robocal.estimation.cross_validation import cv_table
-from robocal.estimation.model_selection import Selection, ladder, one_standard_error
+from robocal.estimation.calibrate import calibrate
+from robocal.estimation.cross_validation import cv_table, posture_folds
+from robocal.estimation.model_selection import Selection, closed_form_cv, ladder, one_standard_error
 from robocal.workflows.calibrate import CalibrationRun, check_units, run_calibration
 from robocal.workflows.config_read import read_config
 from robocal.workflows.cv import make_folds
@@ -19,12 +20,20 @@ from robocal.workflows.setup import build_setup
 
 def select_model(config, folds: int | None = None, loo: bool = False, group: str | None = None,
                  allow_failed: bool = False) -> Selection:
-    """Cross-validate every rung of the ladder on the same folds and choose by the one-standard-error rule.
-    The data pass the units check first (notes from allow_failed go into the selection's notes)."""
+    """Score every rung of the ladder on held-out data and choose by the one-standard-error rule
+    (docs/validation.md, "Choosing a model"): with two or more sessions, leave-one-session-out; with one, the
+    closed-form leave-one-out by posture of each rung's fit (no refits); `folds`, `loo` or `group` ask for
+    refitted folds instead. The data pass the input checks first (notes go into the selection's notes)."""
     config = read_config(config)
     base = build_setup(config)
     notes = check_units(base, allow_failed)
-    fold_list, label = make_folds(base, folds, loo, group)
+    closed_form = base.problem.sessions is None and folds is None and not loo and not group
+    if closed_form:
+        n = len(base.problem.values)
+        fold_list = posture_folds(base.problem.values, n)
+        label = f"closed-form leave-one-out by posture ({len(fold_list)} postures, no refits)"
+    else:
+        fold_list, label = make_folds(base, folds, loo, group)
     rungs = ladder(config.parameters.to_dict())
     for rung in rungs:
         try:
@@ -33,7 +42,11 @@ def select_model(config, folds: int | None = None, loo: bool = False, group: str
             rung.skipped = exc.reason
             continue
         rung.n_free = len(setup.problem.params.free_names)
-        rung.cv = cv_table(setup.problem, fold_list, setup.options)
+        if closed_form:
+            calibrate(setup.problem, setup.options)
+            rung.cv = closed_form_cv(setup.problem, fold_list)
+        else:
+            rung.cv = cv_table(setup.problem, fold_list, setup.options)
     rms = np.array([r.cv.rms if r.cv else np.nan for r in rungs])
     se = np.array([r.cv.stderr if r.cv else np.nan for r in rungs])
     if not np.any(np.isfinite(rms)):
