@@ -7,7 +7,7 @@ three run the same plant. Figures and their conditions: docs/dynamics.md, "Under
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pinocchio as pin
@@ -52,13 +52,16 @@ class Plant:
 class RunSummary:
     """Steady contact (the last `window` ticks): true force min/max N, force for the regulator min/max,
     path speed peak to peak mm/s; free space: mean force for the regulator (bias) N and mean feed
-    speed mm/s; rows (ticks, 3): [force for the regulator, feed speed mm/s, true tangential force]."""
+    speed mm/s; peak: the largest true force of the run N; observer: the ContactForceObserver (None for
+    the former design); rows (ticks, 3): [force for the regulator, feed speed mm/s, true tangential force]."""
 
     true_band: tuple[float, float]
     estimate_band: tuple[float, float]
     speed_ripple: float
     free_bias: float
     feed_speed: float
+    peak: float
+    observer: ContactForceObserver | None
     rows: np.ndarray
 
 
@@ -105,19 +108,24 @@ def deburr(plant: Plant, estimator_friction: FrictionModel, estimator_actuator: 
            force: float = 20.0, ticks: int = 1500, window: int = 250, model: pin.Model | None = None,
            seed: int = 1) -> RunSummary:
     """Push along +x towards a wall `wall_at` m ahead with `force` N; observer=False is the former design
-    (raw current-based estimate). model: the estimator's dynamic model (the plant's by default)."""
+    (raw current-based estimate, low-passed at filter_hz in the path generator); with the observer the
+    filter acts on its raw values only (ObserverSettings.filter_hz), not on the contact line.
+    model: the estimator's dynamic model (the plant's by default)."""
     m, fid = plant.model, plant.frame_id
     data = m.createData()
     pin.framesForwardKinematics(m, data, plant.q0)
     start = data.oMf[fid].copy()
     along = np.array([1.0, 0.0, 0.0])
     sim = plant.simulator(Environment(Wall(start.translation + wall_at * along, along, stiffness)), seed)
+    if observer:
+        settings = replace(settings or ObserverSettings(), filter_hz=filter_hz)
     ins = movelf(m, fid, plant.q0, pin.SE3(start.rotation, start.translation + 0.2 * along),
-                 MotionParams(0.25, 1.0, admittance=admittance, force_filter_hz=filter_hz), force)
+                 MotionParams(0.25, 1.0, admittance=admittance, force_filter_hz=None if observer else filter_hz),
+                 force)
     estimator = ExternalForceEstimator(model or m, fid, estimator_actuator or plant.actuator, estimator_friction)
     loop = CurrentForceLoop(PathGenerator(m, ins, plant.period), sim, estimator,
                             TickDifferentiator(plant.period, "central"),
-                            ContactForceObserver(force, settings) if observer else None)
+                            ContactForceObserver(force, settings, plant.period) if observer else None)
     rows = []
     for _ in range(ticks):
         sp, meas = loop.tick()
@@ -128,4 +136,5 @@ def deburr(plant: Plant, estimator_friction: FrictionModel, estimator_actuator: 
     first = touching[0] if touching.size else ticks
     free = rows[first // 3: max(first - 25, first // 3 + 1)]          # steady free-space approach
     return RunSummary((tail[:, 2].min(), tail[:, 2].max()), (tail[:, 0].min(), tail[:, 0].max()),
-                      float(np.ptp(tail[:, 1])), float(free[:, 0].mean()), float(free[:, 1].mean()), rows)
+                      float(np.ptp(tail[:, 1])), float(free[:, 0].mean()), float(free[:, 1].mean()),
+                      float(rows[:, 2].max()), loop.observer, rows)
