@@ -163,14 +163,21 @@ ident = force_scenario.identify_friction(plant)
 real_loop = tangent_loop(model, q0, tcp, gains, along, plant.friction, TS, delay=plant.delay)
 real_admittance = admittance_for_margins(real_loop, 1e5, force_filter, min_stiffness=1e3)
 print("\nunder stiction (breakaway 1.25 x Coulomb, Stribeck 0.01 rad/s), 5 mA noise, 1 tick sensor delay, "
-      "2e4 N/m wall 30 mm ahead, 20 N")
+      "2e4 N/m wall 30 mm ahead, 20 N, noise seed 1")
 print(f"identified from a 10 s Fourier excitation: {ident.message}; Coulomb {np.round(ident.friction.coulomb, 2)} "
-      f"N m (true {coulomb})")
-print(f"observer design: admittance {real_admittance:.3e} m/(N s) (delay in the loop model), {FILTER_HZ:g} Hz filter")
+      f"N m (true {coulomb}), viscous {np.round(ident.friction.viscous, 2)}")
+print(f"admittance {real_admittance:.3e} m/(N s) (delay in the loop model), {FILTER_HZ:g} Hz filter on raw estimates")
 print("| design (identified friction) | true F_T, last second [N] | speed p-p [mm/s] | free-space bias [N] "
-      "| free-space feed [mm/s] |\n|---|---|---|---|---|")
-for name, kwargs in (("former: raw estimate, admittance 7.58e-4", dict(observer=False)),
-                     ("contact observer", dict(admittance=real_admittance))):
-    r = force_scenario.deburr(plant, ident.friction, model=ident.model(model), **kwargs)
+      "| free-space feed [mm/s] | peak [N] |\n|---|---|---|---|---|---|")
+runs = {}
+for name, observer in (("former: raw estimate", False), ("contact observer", True)):
+    r = runs[name] = force_scenario.deburr(plant, ident.friction, model=ident.model(model), admittance=real_admittance,
+                                           observer=observer)
     print(f"| {name} | {r.true_band[0]:.2f}..{r.true_band[1]:.2f} | {r.speed_ripple:.2f} | {r.free_bias:+.2f} "
-          f"| {r.feed_speed:.1f} |")
+          f"| {r.feed_speed:.1f} | {r.peak:.1f} |")
+obs = runs["contact observer"].observer
+k_line = obs.frozen[0]
+print(f"observer: K_t scale {obs.scale.scale:.4f} (+-{obs.scale.std:.4f}, data alone {obs.scale.raw:+.4f} +- "
+      f"{obs.scale.raw_std:.4f}); contact line from {obs.line.samples} press samples, k = {k_line:.0f} N/m "
+      f"(wall 2e4), its force at 20 N known to {obs.line_std():.2f} N; wall force at the commanded position "
+      f"{runs['contact observer'].command_force:.2f} N")

@@ -1,28 +1,37 @@
-"""Tangential contact force that survives joint stiction: tare, trust rule and a contact-stiffness observer.
+"""Tangential contact force that survives joint stiction: tare at the approach speed, torque-constant
+scale from the approach, the contact line measured at that speed, then regulation on the line.
 
-A current-based estimate (external_force.py) is only as good as the friction the estimator subtracts.
-On a real joint at rest the friction is anything up to its breakaway torque, so at rest in contact the
-estimate can be off by sum_j |dq_j| F_s,j (dq = J^-1 [u; 0], 14.6 N for the UR5 of
-examples/force_deburring.py); and a friction or torque-constant error biases it even while sliding.
-This observer works on the tangential component F_u of that estimate, once per tick:
+A current-based estimate (external_force.py) subtracts a friction model; what is left wrong depends on
+the joint speeds (friction level, Stribeck rise, viscous term, any lag between the current sample and
+the differenced motion) and on the set-point acceleration (the servo's torque steps at the ticks, which
+a difference over two ticks cannot see). A joint at rest holds anything up to its breakaway torque.
+So the observer uses the estimate only where these errors cancel, and positions (exact) elsewhere:
 
-* tare: in free space the estimate should read 0. Its mean over the last `tare_ticks` trusted samples
-  (skipping the newest `guard_ticks`, which may already hold contact) is subtracted. The Coulomb part
-  of a friction-level error depends only on the signs of the joint velocities, and the gravity part
-  of a torque-constant error only on the pose: both are the same when pressing on along the path a
-  few millimetres later, so the tare removes them (a torque-constant scale error on the contact force
-  itself stays: an estimate (1 + e) F regulates to F_des/(1 + e)).
-* trust rule: a joint slides when |v_j| >= `slide_velocity` in the direction it had at the tare; only
-  then is its friction torque the model's. A joint that does not could hide up to |dq_j| F_s,j of
-  static friction along the tangent; a sample is trusted when those amounts, summed over the joints
-  not sliding, stay within `budget` x f_des.
-* contact observer: once contact is detected (tared estimate above `detect` x f_des), trusted samples
-  (F_u, x_u) (x_u the TCP position along u from the measured joints) fit the contact line
-  F_u = k (x_u - x_c) by least squares. An untrusted sample is replaced by the line at the measured
-  x_u: joint positions are measured exactly, so the force the contact sees follows from them while
-  the currents cannot tell friction from force. Until the line is determined (enough trusted samples
-  over enough force), and in free space, an untrusted sample is used as it is (tared): its error is
-  then bounded by the static friction the stuck joints can hide.
+* free space (`phase == "free"`): per joint, the mean external torque over the last `tare_ticks`
+  samples (skipping the newest `guard_ticks`) is the tare, taken only for joints that slid in one
+  direction through the whole window, with their mean speed (the cruise speed). Whatever depends on
+  the speed alone is the same a few millimetres later at the same speed, so the tare removes it.
+  The approach samples also give the torque-constant scale (torque_scale.py, gravity change).
+* press (`"press"`): once the tared force exceeds `detect` x f_des, the regulator is given no force,
+  so the path keeps the free-space feed: the joints keep the cruise speed (slowed only by the servo's
+  compliance against the contact) and the set-point does not accelerate, which is where the tare
+  holds. Each sample whose rows are trusted is added to the contact line F = k (x - x_c)
+  (contact_line.py). The press ends when the line's force at f_des is known to `precision` x f_des
+  (1 sigma, from the free-space noise), when a trusted sample reaches f_des, or when the rows stop
+  being trusted with at least two samples in.
+* line (`"line"`): the regulator is given the line at the commanded position: the force the set-point
+  produces once the servos reach it. It is noise-free, needs no filter and no trust rule, and the loop
+  it closes (r_k+1 = r_k + T a (f_des - k r_k)) is a first-order lag for T a k < 1.
+
+Rows and force: the contact is taken as a force along the path tangent u at the tool point (no
+moment, no side force): then F_u = a . tau / |a|^2 over the trusted rows, a = J_rows^T u. A joint's
+row is trusted when the joint is tared and slides in its cruise direction at >= `speed_ratio` of the
+cruise speed; the sample is trusted when those rows see u (noise at most `noise_gain` x that of all
+rows). A free 3-component force is not determined by the rows left: joints 2-4 of a UR5 have parallel
+axes, and their rows cannot see a force along that axis.
+
+Raw values (free space, and in contact before the line exists) are low-passed (`filter_hz`, the force
+loop's filter); the press's 0 and the line are not.
 """
 from __future__ import annotations
 
@@ -32,123 +41,171 @@ from dataclasses import dataclass
 import numpy as np
 
 from robocal.errors import InputError
+from robocal.dynamics.contact_line import ContactLine
+from robocal.dynamics.force_filter import ForceFilter
+from robocal.dynamics.torque_scale import ScaleEstimate, torque_scale
 
 
 @dataclass
 class ObserverSettings:
     """tare_ticks, guard_ticks: the tare window and the newest samples it skips; slide_velocity rad/s:
-    the speed above which a joint is taken as sliding; noise_gain: how much noisier than the estimate
-    from all joints a trusted estimate from the sliding joints may be; detect: contact threshold
-    (fraction of f_des); fit_samples, fit_span: the least trusted contact samples and force range
-    (fraction of f_des) that determine the contact line; deadband: while the force comes from the
-    contact line, a value within deadband x f_des of f_des is reported as f_des (the regulator
-    stops instead of hunting stick-slip steps smaller than that)."""
+    a joint slower than this is not sliding; speed_ratio: a row is trusted in contact at >= this
+    fraction of the joint's cruise speed; noise_gain: how much noisier than the estimate from all rows
+    a trusted estimate may be; detect: contact threshold (fraction of f_des); precision: the press
+    ends when the line's force at f_des has this standard deviation (fraction of f_des); scale_band:
+    approach samples within this fraction of the cruise speed enter the scale; kt_tolerance: the
+    torque constants' relative tolerance (prior of the scale, as 2 sigma); approach_ticks: the longest
+    approach kept for the scale; filter_hz: low-pass of raw values (None: none)."""
 
     tare_ticks: int = 50
     guard_ticks: int = 10
     slide_velocity: float = 1e-3
+    speed_ratio: float = 0.5
     noise_gain: float = 2.0
-    deadband: float = 0.02
     detect: float = 0.1
-    fit_samples: int = 5
-    fit_span: float = 0.25
+    precision: float = 0.01
+    scale_band: float = 0.1
+    kt_tolerance: float = 0.05
+    approach_ticks: int = 2000
+    filter_hz: float | None = 10.0
 
     def __post_init__(self):
-        if self.tare_ticks < 1 or self.guard_ticks < 0 or self.fit_samples < 2:
-            raise InputError("observer windows: tare_ticks >= 1, guard_ticks >= 0, fit_samples >= 2",
+        if self.tare_ticks < 2 or self.guard_ticks < 0 or self.approach_ticks < self.tare_ticks:
+            raise InputError("observer windows: tare_ticks >= 2, guard_ticks >= 0, approach_ticks >= tare_ticks",
                              field="tare_ticks")
-        if not (self.slide_velocity > 0 and self.noise_gain >= 1 and 0 < self.detect < 1 and self.fit_span > 0):
-            raise InputError("observer slide_velocity, detect, fit_span must be > 0 (detect < 1), noise_gain >= 1",
-                             field="slide_velocity")
+        if not (self.slide_velocity > 0 and 0 < self.speed_ratio < 1 and self.noise_gain >= 1
+                and 0 < self.detect < 1 and self.precision > 0 and self.kt_tolerance > 0):
+            raise InputError("observer slide_velocity, precision, kt_tolerance > 0; speed_ratio, detect in "
+                             "(0, 1); noise_gain >= 1", field="slide_velocity")
 
 
 class ContactForceObserver:
-    """Per-tick tangential force for the regulator, from the external joint torques of the current-based
-    estimate. f_des N the setpoint; the contact is taken as a force at the tool point (no moment)."""
+    """Per-tick tangential force for the regulator from the external joint torques of the current-based
+    estimate. f_des N the set-point; period s the control tick (for the filter)."""
 
-    def __init__(self, f_des: float, settings: ObserverSettings | None = None):
+    def __init__(self, f_des: float, settings: ObserverSettings | None = None, period: float = 0.004):
         if not np.isfinite(f_des) or f_des <= 0:
             raise InputError(f"observer needs a force setpoint > 0, got {f_des}", field="f_des")
         self.f_des, self.cfg = float(f_des), settings or ObserverSettings()
-        self.history: deque[np.ndarray] = deque(maxlen=self.cfg.tare_ticks + self.cfg.guard_ticks)
-        self.tare, self.signs, self.in_contact = None, None, False
-        self._sums = np.zeros(5)          # n, sum x, sum F, sum x^2, sum x F of trusted contact samples
-        self._x_ref = 0.0                 # x_u at contact detection: the fit works on x_u - x_ref
-        self._f_range = [np.inf, -np.inf]
+        self.filter = ForceFilter(self.cfg.filter_hz, period) if self.cfg.filter_hz else None
+        self.window: deque[tuple[np.ndarray, np.ndarray]] = deque(maxlen=self.cfg.tare_ticks + self.cfg.guard_ticks)
+        self.approach: deque[tuple[np.ndarray, np.ndarray, np.ndarray]] = deque(maxlen=self.cfg.approach_ticks)
+        self.phase = "free"
+        self.tare = self.cruise = None     # (n,): nan for joints not tared
+        self.scale: ScaleEstimate | None = None
+        self.line = ContactLine()
+        self.frozen: tuple[float, float, float] | None = None     # k, b, x_ref of the line in use
+        self.noise = np.nan                # std of a trusted free-space sample, N
         self.output, self.trusted = 0.0, False
 
-    def sliding(self, v: np.ndarray) -> np.ndarray:
-        """(n,) bool: the joints whose friction torque is the model's: moving and, in contact, in the
-        direction they had in free space (the tare holds for that direction only)."""
-        moving = np.abs(v) >= self.cfg.slide_velocity
-        return moving if not self.in_contact else moving & (np.sign(v) == self.signs)
-
-    def force_from_rows(self, torque: np.ndarray, jacobian: np.ndarray, u: np.ndarray,
-                        rows: np.ndarray) -> float | None:
-        """Tangential force from the given joints' rows of torque = J_lin^T f, or None when those rows
-        do not determine it within `noise_gain` times the noise of the estimate from every joint."""
-        if rows.sum() < 3:
-            return None
-        gain_all = np.linalg.norm(np.linalg.pinv(jacobian.T).T @ u)
-        pinv = np.linalg.pinv(jacobian[:, rows].T)            # (3, k): f = pinv @ torque[rows]
-        if np.linalg.norm(pinv.T @ u) > self.cfg.noise_gain * gain_all:
-            return None
-        return float(u @ (pinv @ torque[rows]))
+    # ---- pieces --------------------------------------------------------------------------------
+    def _update_tare(self) -> None:
+        old = list(self.window)[: len(self.window) - self.cfg.guard_ticks]
+        if len(old) < 2:
+            return
+        tau = np.array([t for t, _ in old])
+        v = np.array([w for _, w in old])
+        steady = np.all(np.abs(v) >= self.cfg.slide_velocity, axis=0) & np.all(np.sign(v) == np.sign(v[-1]), axis=0)
+        self.tare = np.where(steady, tau.mean(axis=0), np.nan)
+        self.cruise = np.where(steady, v.mean(axis=0), np.nan)
 
     @property
     def tare_ready(self) -> bool:
         """True once the tare window is full (contact is only detected from then on)."""
-        return len(self.history) == self.history.maxlen
+        return len(self.window) == self.window.maxlen and self.tare is not None
 
-    @property
-    def contact_line(self) -> tuple[float, float] | None:
-        """(k N/m, F at x_u = x_ref, the position where contact was detected), or None while undetermined."""
-        n, sx, sf, sxx, sxf = self._sums
-        if n < self.cfg.fit_samples or self._f_range[1] - self._f_range[0] < self.cfg.fit_span * self.f_des:
-            return None
-        det = n * sxx - sx * sx
-        if det <= 0:
-            return None
-        k = (n * sxf - sx * sf) / det
-        return (k, (sf - k * sx) / n) if k > 0 else None
+    def trusted_rows(self, v: np.ndarray) -> np.ndarray:
+        """(n,) bool: tared joints sliding in their cruise direction at >= speed_ratio of the cruise speed."""
+        if self.cruise is None:
+            return np.zeros(np.size(v), bool)
+        ok = np.isfinite(self.cruise)
+        ratio = np.where(ok, np.asarray(v, float) / np.where(ok, self.cruise, 1.0), 0.0)
+        return ok & (ratio >= self.cfg.speed_ratio)
 
+    def force_from_rows(self, torque: np.ndarray, jacobian: np.ndarray, u: np.ndarray,
+                        rows: np.ndarray) -> float | None:
+        """Force along u from the given joints' rows of torque = J_lin^T (F u), or None when those rows
+        see u with more than `noise_gain` times the noise of all rows."""
+        a_all = np.asarray(jacobian, float).T @ u
+        a = a_all[rows]
+        if not rows.any() or np.linalg.norm(a) * self.cfg.noise_gain < np.linalg.norm(a_all):
+            return None
+        return float(a @ np.asarray(torque, float)[rows] / (a @ a))
+
+    def _raw(self, value: float) -> float:
+        return float(self.filter.push(value)) if self.filter is not None else float(value)
+
+    def _scaled(self, force: float) -> float:
+        return force / (self.scale.scale if self.scale is not None else 1.0)
+
+    def _start_press(self, jacobian: np.ndarray, u: np.ndarray) -> None:
+        """At contact: freeze the tare, estimate the scale and the noise of a trusted sample."""
+        self.phase = "press"
+        keep = list(self.approach)[: max(len(self.approach) - self.cfg.guard_ticks, 0)]
+        if keep:
+            tau, g, v = (np.array([s[i] for s in keep]) for i in range(3))
+            self.scale = torque_scale(tau, g, v, np.nan_to_num(self.cruise), self.cfg.scale_band,
+                                      self.cfg.kt_tolerance)
+        else:               # no gravity given: the nominal torque constants
+            self.scale = ScaleEstimate(1.0, 0.0, np.inf, self.cfg.kt_tolerance / 2, (), ())
+        rows = np.isfinite(self.tare)
+        old = [t for t, _ in list(self.window)[: len(self.window) - self.cfg.guard_ticks]]
+        forces = [self.force_from_rows(t - np.nan_to_num(self.tare), jacobian, u, rows) for t in old]
+        forces = [f for f in forces if f is not None]
+        self.noise = float(np.std(forces, ddof=1)) / self.scale.scale if len(forces) > 2 else np.nan
+
+    def _freeze(self) -> None:
+        k, b = self.line.coefficients()
+        self.frozen, self.phase = (k, b, self.line.x_ref), "line"
+
+    def line_std(self) -> float:
+        """Standard deviation of the line's force at f_des, N (the free-space noise or the residual
+        scatter, the larger)."""
+        if self.line.coefficients() is None:
+            return float("inf")
+        sigma = np.nanmax([self.noise, self.line.residual_std(), 0.0])
+        return self.line.prediction_std(self.line.position_of(self.f_des), sigma)
+
+    # ---- one tick ------------------------------------------------------------------------------
     def update(self, torque: np.ndarray, jacobian: np.ndarray, u: np.ndarray, x_u: float,
-               v: np.ndarray, x_cmd: float | None = None) -> float:
+               v: np.ndarray, x_cmd: float | None = None, gravity: np.ndarray | None = None) -> float:
         """One tick: external joint torques (n,) N m of the current-based estimate, the translational
-        Jacobian (3, n) of the tool point, the unit tangent u (3,), the tool position along u m and
-        the joint velocities (n,) rad/s, and x_cmd m the commanded tool position along u (the
-        setpoint) -> the tangential force N for the regulator. An untrusted sample in contact is the
-        contact line at x_cmd: the force the setpoint will produce once the servos reach it, so the
-        regulator does not wind up against joints that stick (at x_u when x_cmd is None)."""
-        rows = self.sliding(v)
-        if not self.in_contact and rows.any():      # free space: the per-joint tare, sliding joints only
-            self.history.append(np.where(rows, torque, np.nan))
-            self.signs = np.where(rows, np.sign(v), 0.0 if self.signs is None else self.signs)
-            if len(self.history) > self.cfg.guard_ticks:
-                old = np.array(list(self.history)[: len(self.history) - self.cfg.guard_ticks])
-                seen = np.isfinite(old).sum(axis=0)
-                self.tare = np.where(seen > 0, np.nansum(old, axis=0) / np.maximum(seen, 1), 0.0)
-        tared = torque - (self.tare if self.tare is not None else 0.0)
-        force = self.force_from_rows(tared, jacobian, u, rows)
+        Jacobian (3, n) of the tool point, the unit tangent u (3,), the tool position along u m from the
+        measured joints, the joint velocities (n,) rad/s, x_cmd m the commanded tool position along u
+        (x_u when None) and gravity (n,) N m the model's g(q) (no scale estimate without it)
+        -> the tangential force N for the regulator."""
+        torque, v = np.asarray(torque, float), np.asarray(v, float)
+        x_cmd = x_u if x_cmd is None else x_cmd
+        if self.phase == "line":
+            k, b, x_ref = self.frozen
+            self.output, self.trusted = k * (x_cmd - x_ref) + b, False
+            return self.output
+        if self.phase == "free":
+            self.window.append((torque.copy(), v.copy()))
+            if gravity is not None:
+                self.approach.append((torque.copy(), np.asarray(gravity, float).copy(), v.copy()))
+            if len(self.window) > self.cfg.guard_ticks:
+                self._update_tare()
+        tared = torque - (np.nan_to_num(self.tare) if self.tare is not None else 0.0)
+        force = self.force_from_rows(tared, jacobian, u, self.trusted_rows(v))
         self.trusted = force is not None
-        if not self.in_contact:
+        if self.phase == "free":
             if self.trusted and self.tare_ready and force > self.cfg.detect * self.f_des:
-                self.in_contact, self._x_ref = True, float(x_u)
-            else:   # untrusted in free space: every joint's row, tared (error bounded by the stuck joints)
-                self.output = force if self.trusted else float(u @ np.linalg.pinv(jacobian.T) @ tared)
-                return self.output
-        x_u = x_u - self._x_ref
-        x_line = x_u if x_cmd is None else x_cmd - self._x_ref
-        if self.trusted:
-            self._sums += (1.0, x_u, force, x_u * x_u, x_u * force)
-            self._f_range = [min(self._f_range[0], force), max(self._f_range[1], force)]
-            self.output = force
-        else:
-            line = self.contact_line
-            if line is None:
-                self.output = float(u @ np.linalg.pinv(jacobian.T) @ tared)
+                self._start_press(jacobian, u)
             else:
-                self.output = line[0] * x_line + line[1]
-                if abs(self.output - self.f_des) <= self.cfg.deadband * self.f_des:
-                    self.output = self.f_des
+                every = self.force_from_rows(tared, jacobian, u, np.ones(v.size, bool))
+                self.output = self._raw(force if self.trusted else every)
+                return self.output
+        # press: the regulator keeps the feed while the line is measured at the cruise speed
+        if self.trusted:
+            force = self._scaled(force)
+            self.line.add(x_u, force)
+        line_ok = self.line.coefficients() is not None
+        if line_ok and (not self.trusted or force >= self.f_des or self.line_std() <= self.cfg.precision * self.f_des):
+            self._freeze()
+            return self.update(torque, jacobian, u, x_u, v, x_cmd, gravity)
+        if self.trusted and force < self.f_des:
+            self.output = 0.0
+        else:                # no line yet: the tared estimate from every row (error up to the stuck joints')
+            self.output = self._raw(self._scaled(self.force_from_rows(tared, jacobian, u, np.ones(v.size, bool))))
         return self.output

@@ -51,5 +51,6 @@ class CurrentForceLoop:
         pin.framesForwardKinematics(m, d, gen.q_des)
         x_cmd = float(d.oMf[est.frame_id].translation @ u)   # the setpoint the servos are driving to
         self.raw_force = float(wrench[:3] @ u)
-        force = self.observer.update(torque, J[:3], u, x_u, v, x_cmd)
+        gravity = pin.computeGeneralizedGravity(m, d, q)          # the model's, for the torque-constant scale
+        force = self.observer.update(torque, J[:3], u, x_u, v, x_cmd, gravity)
         return wrench + np.r_[(force - self.raw_force) * u, 0.0, 0.0, 0.0]

@@ -7,7 +7,7 @@ three run the same plant. Figures and their conditions: docs/dynamics.md, "Under
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pinocchio as pin
@@ -52,13 +52,19 @@ class Plant:
 class RunSummary:
     """Steady contact (the last `window` ticks): true force min/max N, force for the regulator min/max,
     path speed peak to peak mm/s; free space: mean force for the regulator (bias) N and mean feed
-    speed mm/s; rows (ticks, 3): [force for the regulator, feed speed mm/s, true tangential force]."""
+    speed mm/s; peak: the largest true force of the run N; command_force: the wall's force at the last
+    commanded tool position N (what the force would be with the servos on their set-point: the true
+    force minus it is the servos' offset); observer: the ContactForceObserver (None for the former
+    design); rows (ticks, 3): [force for the regulator, feed speed mm/s, true tangential force]."""
 
     true_band: tuple[float, float]
     estimate_band: tuple[float, float]
     speed_ripple: float
     free_bias: float
     feed_speed: float
+    peak: float
+    command_force: float
+    observer: ContactForceObserver | None
     rows: np.ndarray
 
 
@@ -74,12 +80,10 @@ def scaled_actuator(actuator: ActuatorModel, factor: float) -> ActuatorModel:
                          actuator.coupling)
 
 
-def identify_friction(plant: Plant, seconds: float = 10.0, seed: int = 0, amplitude: float = 0.3):
-    """Run a Fourier excitation (one 0.1 Hz period, 5 harmonics, +-`amplitude` rad about q0, joint speeds
-    up to 1 rad/s) on the simulated plant in free space, and identify its dynamics from the measured
-    (delayed, noisy) positions and currents with `identify_dynamics` (Coulomb, viscous, offset; the
-    torque-constant scale is not observable without a payload and stays nominal).
-    Returns the DynamicIdentificationResult."""
+def excitation_segment(plant: Plant, seconds: float = 10.0, seed: int = 0, amplitude: float = 0.3) -> Segment:
+    """A Fourier excitation (one 0.1 Hz period, 5 harmonics, +-`amplitude` rad about q0, joint speeds up to
+    1 rad/s) run on the simulated plant in free space: the measured (delayed, noisy) positions, their
+    central differences and the measured currents, as a `Segment` for `identify_dynamics`."""
     m, ts = plant.model, plant.period
     rng = np.random.default_rng(seed)
     n = m.nv
@@ -94,9 +98,16 @@ def identify_friction(plant: Plant, seconds: float = 10.0, seed: int = 0, amplit
     current = np.array([r.current for r in logs])[25 + int(1.0 / ts):]
     v, a = differentiate(q, ts, "central")
     keep = slice(2, -2)
-    template = FrictionModel(np.zeros(n), smoothing=1e-3)
-    return identify_dynamics(m, [Segment(q[keep], v[keep], a[keep], current[keep])], plant.actuator, template,
-                             current_noise=plant.current_noise)
+    return Segment(q[keep], v[keep], a[keep], current[keep])
+
+
+def identify_friction(plant: Plant, seconds: float = 10.0, seed: int = 0, amplitude: float = 0.3):
+    """Identify the plant's dynamics from `excitation_segment` with `identify_dynamics` (Coulomb, viscous,
+    offset; the torque-constant scale is not observable without a payload and stays nominal).
+    Returns the DynamicIdentificationResult."""
+    template = FrictionModel(np.zeros(plant.model.nv), smoothing=1e-3)
+    return identify_dynamics(plant.model, [excitation_segment(plant, seconds, seed, amplitude)], plant.actuator,
+                             template, current_noise=plant.current_noise)
 
 
 def deburr(plant: Plant, estimator_friction: FrictionModel, estimator_actuator: ActuatorModel | None = None,
@@ -105,27 +116,35 @@ def deburr(plant: Plant, estimator_friction: FrictionModel, estimator_actuator: 
            force: float = 20.0, ticks: int = 1500, window: int = 250, model: pin.Model | None = None,
            seed: int = 1) -> RunSummary:
     """Push along +x towards a wall `wall_at` m ahead with `force` N; observer=False is the former design
-    (raw current-based estimate). model: the estimator's dynamic model (the plant's by default)."""
+    (raw current-based estimate, low-passed at filter_hz in the path generator); with the observer the
+    filter acts on its raw values only (ObserverSettings.filter_hz), not on the contact line.
+    model: the estimator's dynamic model (the plant's by default)."""
     m, fid = plant.model, plant.frame_id
     data = m.createData()
     pin.framesForwardKinematics(m, data, plant.q0)
     start = data.oMf[fid].copy()
     along = np.array([1.0, 0.0, 0.0])
     sim = plant.simulator(Environment(Wall(start.translation + wall_at * along, along, stiffness)), seed)
+    if observer:
+        settings = replace(settings or ObserverSettings(), filter_hz=filter_hz)
     ins = movelf(m, fid, plant.q0, pin.SE3(start.rotation, start.translation + 0.2 * along),
-                 MotionParams(0.25, 1.0, admittance=admittance, force_filter_hz=filter_hz), force)
+                 MotionParams(0.25, 1.0, admittance=admittance, force_filter_hz=None if observer else filter_hz),
+                 force)
     estimator = ExternalForceEstimator(model or m, fid, estimator_actuator or plant.actuator, estimator_friction)
     loop = CurrentForceLoop(PathGenerator(m, ins, plant.period), sim, estimator,
                             TickDifferentiator(plant.period, "central"),
-                            ContactForceObserver(force, settings) if observer else None)
+                            ContactForceObserver(force, settings, plant.period) if observer else None)
     rows = []
     for _ in range(ticks):
         sp, meas = loop.tick()
         rows.append([sp.force, sp.sd * ins.path.length * 1e3, meas.true_wrench[:3] @ along])
     rows = np.array(rows)
+    pin.framesForwardKinematics(m, data, loop.generator.q_des)
+    command_force = float(sim.environment.wrench(data.oMf[fid].translation, np.zeros(3))[:3] @ along)
     tail = rows[-window:]
     touching = np.nonzero(rows[:, 2] > 0)[0]
     first = touching[0] if touching.size else ticks
     free = rows[first // 3: max(first - 25, first // 3 + 1)]          # steady free-space approach
     return RunSummary((tail[:, 2].min(), tail[:, 2].max()), (tail[:, 0].min(), tail[:, 0].max()),
-                      float(np.ptp(tail[:, 1])), float(free[:, 0].mean()), float(free[:, 1].mean()), rows)
+                      float(np.ptp(tail[:, 1])), float(free[:, 0].mean()), float(free[:, 1].mean()),
+                      float(rows[:, 2].max()), command_force, loop.observer, rows)
