@@ -130,6 +130,22 @@ def held_out_frames(problem: Problem, fold: np.ndarray) -> list[str]:
     return [n for n in names if n in problem.params.names and problem.params[n].vary]
 
 
+def hold_absent_sessions(params, sessions, train: np.ndarray) -> None:
+    """Fix the frame corrections a training fold cannot see: those of sessions with no training sample, and,
+    when the reference session has none, the first present session's (its frame becomes `base`, which the
+    correction would otherwise duplicate)."""
+    if sessions is None or not sessions.corrected:
+        return
+    present = sorted(set(sessions.of_sample[train].tolist()))
+    held = [s for s in range(len(sessions.names)) if s not in present]
+    if 0 in held and present:
+        held.append(present[0])
+    for s in held:
+        for name in sessions.parameter_names(s):
+            if name in params.names:
+                params[name].vary = False
+
+
 @dataclass
 class CVTable:
     unit: str                     # the primary unit: mm when the blocks hold lengths, else mrad
@@ -157,15 +173,17 @@ def cv_table(problem: Problem, folds: list[np.ndarray], options: CalibrationOpti
     for fold in folds:
         train = np.setdiff1d(np.arange(n), fold)
         params = initial.copy()
+        hold_absent_sessions(params, problem.sessions, train)
         sub = Problem(problem.robot, params, problem.joint_names, problem.values,
                       [subset_residual(r, train) for r in problem.residuals], problem.directions, problem.sessions)
         result = calibrate(sub, opt)
+        tr = norms_by_unit(term_errors(sub))          # before the held-out frames move the shared parameters
         tested = Problem(problem.robot, params, problem.joint_names, problem.values,
                          [subset_residual(r, fold) for r in problem.residuals], problem.directions, problem.sessions)
         frames = held_out_frames(problem, fold)
         if frames:
             fit_subset(tested, frames, opt)
-        tr, va = norms_by_unit(term_errors(sub)), norms_by_unit(term_errors(tested))
+        va = norms_by_unit(term_errors(tested))
         for unit in va:
             held.setdefault(unit, []).append(va[unit] ** 2)
             trained.setdefault(unit, []).append(tr.get(unit, np.zeros(0)) ** 2)
