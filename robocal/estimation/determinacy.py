@@ -121,20 +121,24 @@ def classify(names, J_data: np.ndarray, noise2: float, thresholds: np.ndarray, s
             stderr[n], classes[n] = float("inf"), cls
     directions = []
     ratio = scales / thresholds          # the physical scale in thresholds, per column
+    finite = np.isfinite(ratio)
+    ratio2 = np.where(finite, ratio, np.inf) ** 2
     for k in np.argsort(-cov_eig):
         se = float(np.sqrt(cov_eig[k]))
         if se <= 1.0:
             break
         v = V[:, k]
-        order = [i for i in np.argsort(-np.abs(v)) if abs(v[i]) > PARTICIPATES * np.abs(v).max()]
+        a = np.abs(v)
+        by_size = np.argsort(-a)
+        order = by_size[a[by_size] > PARTICIPATES * a.max()].tolist()
         sign = np.sign(v[order[0]]) or 1.0
-        terms = [(names[i], float(sign * v[i])) for i in order]
+        terms = list(zip([names[i] for i in order], (sign * v[order]).tolist()))
         # beyond scale: the direction's spread exceeds the physical scale of the parameters it moves
-        reach = float(np.sqrt(np.sum((v ** 2) / np.where(np.isfinite(ratio), ratio, np.inf) ** 2)))
+        reach = float(np.sqrt(np.sum((v ** 2) / ratio2)))
         beyond = se * reach > 1.0 if reach > 0 else False
         # the prior decides it when every parameter of it with a physical scale has one (registration frames
         # have neither: the prior holds them through the robot parameters they are tied to)
-        scaled = [i for i in order if np.isfinite(ratio[i])]
+        scaled = [i for i in order if finite[i]]
         prior = beyond and bool(scaled) and all(names[i] in with_prior for i in scaled)
         directions.append(Direction(terms, se, bool(beyond), prior, se * reach))
     return Determinacy(stderr, classes, directions)
