@@ -114,6 +114,13 @@ def levenberg_marquardt(fun: Callable, x0: np.ndarray, lower=None, upper=None, l
         if n == 0 or gnorm <= gtol * max(1.0, np.sqrt(2 * cost)):
             status, message = 1, "gradient below gtol"
             break
+        # 1/2 |Q^T r|^2 is the reduction the Gauss-Newton step predicts, the most the linear model can gain
+        # (rank deficiency and bounds only lower it). Once the model has predicted the last step well, a
+        # prediction below ftol x cost means the step cannot pass the ftol test below: stop without
+        # evaluating it (it would move the parameters by a fraction of a standard error of order sqrt(ftol))
+        if good_model and 0.5 * float(qtr @ qtr) <= ftol * cost:
+            status, message = 2, "cost reduction below ftol"
+            break
         # After a step the model predicted well, try the undamped (Gauss-Newton) step first: on a
         # well-modelled but ill-conditioned problem the damping would otherwise hold back the weak
         # directions for many iterations while it decays.
