@@ -24,7 +24,8 @@ from robocal.estimation.physical_scale import (DETERMINED_ANGLE, DETERMINED_LENG
                                                physical_scales)
 from robocal.estimation.findings import find
 from robocal.estimation.plausibility import check_fit, nominal_values
-from robocal.estimation.registration import DefaultPrior, apply_default_prior, data_rows, register_nominal
+from robocal.estimation.registration import (DefaultPrior, apply_default_prior, data_rows, register_nominal,
+                                             with_current_priors)
 from robocal.estimation.problem import Evaluation, Problem
 from robocal.estimation.session_figures import session_figures
 from robocal.estimation.result import BlockStats, CalibrationResult, block_statistics
@@ -64,19 +65,28 @@ def calibrate(problem: Problem, options: CalibrationOptions | None = None,
     nominal = nominal_values(params)
     scales = physical_scales(problem, opt.determined_length, opt.determined_angle)
     requested = params.free_names
-    ev0 = problem.evaluate(jacobian=False)
-    m = len(ev0.r)
+    # one evaluation at the start serves the checks, the registration's first step and (unless the default
+    # prior changes the rows) the selection and the fit's first step: all at the same values
+    evaluate, chunked = evaluator(problem, opt.chunk_terms)   # chunked: J is only ever its triangle
+    start = evaluate()
+    m = len(start.r)
     if m < len(requested):
         raise IdentifiabilityError(
             f"{source}: {m} measurement rows cannot determine {len(requested)} free parameters; add samples or "
             f"fix parameters")
-    if not np.all(np.isfinite(ev0.r)):
+    if not np.all(np.isfinite(start.r)):
         raise IdentifiabilityError(f"{source}: the residuals are not finite at the initial parameters")
-    registered = register_nominal(problem, opt) if opt.register_before or opt.regularisation == "auto" else None
+    registered = (register_nominal(problem, opt, None if chunked else start)
+                  if opt.register_before or opt.regularisation == "auto" else None)
     default_prior = (apply_default_prior(problem, registered, scales, opt.rank_rtol, opt.chunk_terms)
                      if opt.regularisation == "auto" else DefaultPrior("none", False))
-    evaluate, chunked = evaluator(problem, opt.chunk_terms)   # chunked: J is only ever its triangle
-    ev0 = evaluate()                   # after the registration: the layout of the full free set, with any prior
+    evaluate, was_chunked = evaluator(problem, opt.chunk_terms)[0], chunked
+    chunked = evaluator(problem, opt.chunk_terms)[1]
+    if chunked != was_chunked or (chunked and default_prior.applied):
+        ev0 = evaluate()               # the layout of the full free set, with any prior
+    else:
+        ev0 = with_current_priors(problem, start) if default_prior.applied else start
+        problem.blocks = problem.layout()
     m = len(ev0.r)
     before = registered.before if registered is not None and opt.register_before else block_statistics(problem, ev0)
 

@@ -17,6 +17,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from robocal.estimation.chunked_lstsq import evaluator
+from robocal.estimation.problem import Evaluation
+from robocal.residuals.prior import prior_rows
 from robocal.estimation.identifiability import select_base_parameters
 from robocal.estimation.physical_scale import is_registration, measured_frames
 from robocal.estimation.regularisation import choose_strength
@@ -68,14 +70,52 @@ def data_rows(problem, n_rows: int) -> np.ndarray:
     return keep
 
 
-def fit_subset(problem, names: list[str], options, last: dict | None = None):
+def subset_evaluation(problem, ev: Evaluation, names: list[str]) -> Evaluation:
+    """What evaluating with only `names` free would give, from `ev`, taken with every free parameter varying at
+    the same values: its columns of `names`, its data rows and the prior rows of `names` (a prior row is
+    its parameter's own). The residuals do not depend on which parameters are free, nor a column on the
+    other columns."""
+    params = problem.params
+    free = params.free_names
+    cols = [k for k, n in enumerate(free) if n in names]     # the subset's columns come in the same order
+    with_prior = [p.name for p in params if p.prior_sigma is not None and p.vary]
+    n_prior = len(with_prior)
+    m_data = len(ev.r) - n_prior
+    if not any(n in names for n in with_prior):
+        rows = slice(0, m_data) if n_prior else slice(None)
+        return Evaluation(ev.r[rows], ev.J[rows][:, cols], ev.raw[rows], ev.group[rows])
+    kept = [m_data + k for k, n in enumerate(with_prior) if n in names]
+    rows = np.concatenate([np.arange(m_data), kept])
+    first_prior = sum(res.n_terms for res in problem.residuals)
+    group = np.concatenate([ev.group[:m_data], np.arange(first_prior, first_prior + len(kept))])
+    return Evaluation(ev.r[rows], ev.J[rows][:, cols], ev.raw[rows], group)
+
+
+def with_current_priors(problem, ev: Evaluation) -> Evaluation:
+    """`ev`, an evaluation at the current values with every free parameter varying, with its prior rows
+    replaced by those of the current layout (after priors were added): what evaluating again would give."""
+    problem.blocks = problem.layout()
+    last = problem.blocks[-1] if problem.blocks else None
+    m_data = last.rows.start if last is not None and last.type_name == "prior" else len(ev.r)
+    pr, pJ, _ = prior_rows(problem.params)
+    first_prior = sum(res.n_terms for res in problem.residuals)
+    return Evaluation(np.concatenate([ev.r[:m_data], pr]), np.vstack([ev.J[:m_data], pJ]),
+                      np.concatenate([ev.raw[:m_data], pr]),
+                      np.concatenate([ev.group[:m_data], np.arange(first_prior, first_prior + len(pr))]))
+
+
+def fit_subset(problem, names: list[str], options, last: dict | None = None, start: Evaluation | None = None):
     """Fit only `names` (the rest held at their values); values stay at the fit, `vary` flags are restored.
     last: if given, receives the solver's last evaluation ('x', 'ev'), so that a caller evaluating at the
-    solution with the same free set need not evaluate again."""
+    solution with the same free set need not evaluate again. start: the problem's evaluation at the current
+    values with every free parameter varying (whole Jacobian), if the caller has it: the solver's first
+    evaluation is then taken from it (subset_evaluation) instead of a pass over the samples."""
     params = problem.params
     free = params.free_names
     fixed_now = [n for n in names if not params[n].vary]
     last = {} if last is None else last
+    first = subset_evaluation(problem, start, names) if start is not None and not fixed_now else None
+    x0 = params.value_array([n for n in free if n in names])
     try:
         for n in free:
             params[n].vary = n in names
@@ -85,8 +125,11 @@ def fit_subset(problem, names: list[str], options, last: dict | None = None):
         evaluate = evaluator(problem, options.chunk_terms)[0]
 
         def fun(x):
-            params.set_free_values(x)
-            ev = evaluate()
+            if first is not None and np.array_equal(x, x0):
+                ev = first
+            else:
+                params.set_free_values(x)
+                ev = evaluate()
             last["x"], last["ev"] = np.array(x), ev
             return ev.r, ev.J, ev.group
 
@@ -102,8 +145,10 @@ def fit_subset(problem, names: list[str], options, last: dict | None = None):
     return sol
 
 
-def register_nominal(problem, options) -> Registered:
-    """Fit the registration parameters alone (robot at nominal); the problem's parameters are restored."""
+def register_nominal(problem, options, evaluation: Evaluation | None = None) -> Registered:
+    """Fit the registration parameters alone (robot at nominal); the problem's parameters are restored.
+    evaluation: the evaluation at the current values with every free parameter varying, if the caller has it
+    (fit_subset's start)."""
     params = problem.params
     free = params.free_names
     measured = measured_frames(problem)
@@ -112,7 +157,7 @@ def register_nominal(problem, options) -> Registered:
     warm = copy.deepcopy(problem.warm_starts)   # closed chains assemble from the last solution: keep the fit's
     last: dict = {}
     try:
-        sol = fit_subset(problem, reg, options, last) if reg else None
+        sol = fit_subset(problem, reg, options, last, evaluation) if reg else None
         message = sol.message if sol is not None else "nothing to register"
         for n in free:
             params[n].vary = n in reg      # the "before" layout: no prior rows of the robot parameters
