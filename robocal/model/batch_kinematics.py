@@ -158,6 +158,25 @@ class BatchKinematics:
             self.constants.regressors[jid] = (samples.copy(), q, self.ms.joint_key, out)
         return out
 
+    def joint_poses(self, jid: int, reg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(R (n, 3, 3), p (n, 3)): joint jid's poses on the robot from its regressors `reg`, kept with them (the
+        same key decides both: a pass that reuses the regressors reuses the poses)."""
+        hit = self.constants.regressors.get(jid)
+        if hit is not None and hit[3] is reg and len(hit) > 4:
+            return hit[4]
+        model = self.model
+        j0 = model.supports[jid][1]
+        block = reg[:, :, 6 * (j0 - 1):6 * j0]     # Ad(X_j0), X_j0 = oMi^-1 jointPlacement(j0)
+        RX, B = block[:, 3:, 3:], block[:, :3, 3:]         # B = [pX]x RX: pX's entries from three rows
+        pX = np.stack([np.einsum("nk,nk->n", B[:, 2], RX[:, 1]), np.einsum("nk,nk->n", B[:, 0], RX[:, 2]),
+                       np.einsum("nk,nk->n", B[:, 1], RX[:, 0])], axis=-1)
+        root = model.jointPlacements[j0]
+        Ri = root.rotation @ transpose(RX)
+        pi = root.translation - np.einsum("nij,nj->ni", Ri, pX)
+        if hit is not None and hit[3] is reg:
+            self.constants.regressors[jid] = hit[:4] + ((Ri, pi),)
+        return Ri, pi
+
     def twist_map(self, ms) -> np.ndarray:
         """(6 n_joints, n_free): d(placement twists)/d(free parameters), with each offset column written as
         its joint's motion subspace S_j (a joint turning by dq moves the frame like a placement twist S_j dq)."""
@@ -186,14 +205,7 @@ class BatchKinematics:
             Ri, pi = np.broadcast_to(np.eye(3), (n, 3, 3)), np.zeros((n, 3))
         else:
             reg = self.regressors(parent, unique)
-            j0 = model.supports[parent][1]
-            block = reg[:, :, 6 * (j0 - 1):6 * j0]     # Ad(X_j0), X_j0 = oMi^-1 jointPlacement(j0)
-            RX, B = block[:, 3:, 3:], block[:, :3, 3:]         # B = [pX]x RX: pX's entries from three rows
-            pX = np.stack([np.einsum("nk,nk->n", B[:, 2], RX[:, 1]), np.einsum("nk,nk->n", B[:, 0], RX[:, 2]),
-                           np.einsum("nk,nk->n", B[:, 1], RX[:, 0])], axis=-1)
-            root = model.jointPlacements[j0]
-            Ri = root.rotation @ transpose(RX)
-            pi = root.translation - np.einsum("nij,nj->ni", Ri, pX)
+            Ri, pi = self.joint_poses(parent, reg)
         # a stack times one matrix as one (3n x 3) GEMM: several times faster than matmul's broadcasting
         Ri = np.ascontiguousarray(Ri)
         R0 = (Ri.reshape(-1, 3) @ placement.rotation).reshape(Ri.shape)
