@@ -25,7 +25,7 @@ from robocal.estimation.physical_scale import (DETERMINED_ANGLE, DETERMINED_LENG
 from robocal.estimation.findings import find
 from robocal.estimation.plausibility import check_fit, nominal_values
 from robocal.estimation.registration import (DefaultPrior, apply_default_prior, data_rows, register_nominal,
-                                             with_current_priors)
+                                             subset_evaluation, with_current_priors)
 from robocal.estimation.problem import Evaluation, Problem
 from robocal.estimation.session_figures import session_figures
 from robocal.estimation.result import BlockStats, CalibrationResult, block_statistics
@@ -91,13 +91,19 @@ def calibrate(problem: Problem, options: CalibrationOptions | None = None,
     before = registered.before if registered is not None and opt.register_before else block_statistics(problem, ev0)
 
     last = {}
+    wide: list = []      # (x, evaluation with every requested parameter free) of the last passes, when `widen`
 
     def fun(x):
         if "x" in last and last["x"].shape == np.shape(x) and np.array_equal(last["x"], x):
             ev = last["ev"]
             return ev.r, ev.J, ev.group
         params.set_free_values(x)
-        ev = evaluate()
+        if widen:
+            ev_all = _evaluate_requested(problem, evaluate, requested)
+            ev = subset_evaluation(problem, ev_all, params.free_names, requested)
+            wide[:] = wide[-2:] + [(np.array(x), ev_all)]
+        else:
+            ev = evaluate()
         last["x"], last["ev"] = np.array(x), ev
         return ev.r, ev.J, ev.group
 
@@ -119,7 +125,11 @@ def calibrate(problem: Problem, options: CalibrationOptions | None = None,
     if not chunked:
         last["x"], last["ev"] = params.free_values(), Evaluation(ev0.r, ev0.J[:, kept], ev0.raw, ev0.group)
         first_triangle = columns_triangle(start, kept, ev0, start_rows)
+        wide.append((last["x"], ev0))
     for _attempt in range(MAX_SELECTION_PASSES):
+        # parameters without effect at the start are examined again at the solution: the solver's passes then
+        # evaluate every requested column (a wider GEMM), so its last one serves that check too
+        widen = bool(selection.no_effect) and not chunked and _attempt < MAX_SELECTION_PASSES - 1
         log.info("calibrating %d of %d requested parameters from %d rows", selection.rank, len(requested), m)
         lo, hi = params.free_bounds()
         sol = levenberg_marquardt(fun, params.free_values(), lo, hi, loss=opt.loss, f_scale=opt.f_scale,
@@ -132,7 +142,9 @@ def calibrate(problem: Problem, options: CalibrationOptions | None = None,
         for name in requested:
             params[name].vary = True
         allowed = set(selection.independent) | set(hidden)
-        ev_all = evaluate()
+        ev_all = next((e for xw, e in wide if xw.shape == sol.x.shape and np.array_equal(xw, sol.x)), None)
+        ev_all = ev_all if ev_all is not None else evaluate()
+        wide.clear()
         again_data = select_base_parameters(triangle(ev_all.J, ev_all.r, None, len(requested), start_rows)[:-1, :-1],
                                             requested, opt.rank_rtol, allowed)
         prior_only = [requested[j] for j in again_data.dependent if j in with_prior]
@@ -213,6 +225,20 @@ def columns_triangle(T: np.ndarray, kept: list[int], ev: Evaluation, data_rows: 
     others = np.flatnonzero(~data_rows)
     block = np.vstack([T[:, cols], np.column_stack([ev.J[others][:, kept], ev.r[others]])])
     return r_factor(block, overwrite=True)
+
+
+def _evaluate_requested(problem, evaluate, requested: list[str]) -> Evaluation:
+    """The evaluation at the current values with every requested parameter free; the free flags are restored."""
+    params = problem.params
+    flags = [params[n].vary for n in requested]
+    try:
+        for name in requested:
+            params[name].vary = True
+        return evaluate()
+    finally:
+        for name, vary in zip(requested, flags):
+            params[name].vary = vary
+        problem.blocks = problem.layout()
 
 
 def _apply_selection(params, requested, J, rtol, selection=None):

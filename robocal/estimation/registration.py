@@ -70,15 +70,16 @@ def data_rows(problem, n_rows: int) -> np.ndarray:
     return keep
 
 
-def subset_evaluation(problem, ev: Evaluation, names: list[str]) -> Evaluation:
-    """What evaluating with only `names` free would give, from `ev`, taken with every free parameter varying at
-    the same values: its columns of `names`, its data rows and the prior rows of `names` (a prior row is
-    its parameter's own). The residuals do not depend on which parameters are free, nor a column on the
-    other columns."""
+def subset_evaluation(problem, ev: Evaluation, names: list[str], free: list[str] | None = None) -> Evaluation:
+    """What evaluating with only `names` free would give, from `ev`, taken at the same values with `free`
+    (default: the current free parameters) free: its columns of `names`, its data rows and the prior rows of
+    `names` (a prior row is its parameter's own). The residuals do not depend on which parameters are free,
+    nor a column on the other columns."""
     params = problem.params
-    free = params.free_names
+    free = params.free_names if free is None else free
+    names, free_set = set(names), set(free)
     cols = [k for k, n in enumerate(free) if n in names]     # the subset's columns come in the same order
-    with_prior = [p.name for p in params if p.prior_sigma is not None and p.vary]
+    with_prior = [p.name for p in params if p.prior_sigma is not None and (p.vary or p.name in free_set)]
     n_prior = len(with_prior)
     m_data = len(ev.r) - n_prior
     if not any(n in names for n in with_prior):
