@@ -41,19 +41,20 @@ CONFIG = MOCAP / "full_bl.yaml"
 TRAINING = MOCAP / "data" / "qualisys_2021-11-30_static_postures.csv"
 VALIDATION = MOCAP / "data" / "qualisys_2021-11-26_static_postures.csv"
 FIGAROH_CONFIG = ROOT / "benchmarks" / "figaroh" / "tiago_calibration.yaml"
-ISSUE_FIT_RATIO, ISSUE_END_TO_END_RATIO = 60.0, 10.0     # issue 20's must-hold figures
+ISSUE_FIT_RATIO = 40.0            # issue 37: calibrate() against solve_optimisation()
+ISSUE_END_TO_END_RATIO = 10.0     # issue 20: the command line against FIGAROH's script
 
 
 def robocal_fit() -> dict:
     """In this process: build the problem, time calibrate() alone, score BL on both sessions."""
     setup = setup_for_data(CONFIG)
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     result = calibrate(setup.problem, setup.options)
-    seconds = time.perf_counter() - t0
+    seconds, cpu = time.perf_counter() - t0, time.process_time() - c0
     block = setup.problem.residuals[0].name
     train = term_errors(setup.problem)[block].point_stats("BL")
     val = term_errors(setup_for_data(CONFIG, VALIDATION).problem, setup.problem.params)[block].point_stats("BL")
-    return {"calibrate_s": seconds, "success": bool(result.success), "iterations": int(result.solve.nit),
+    return {"calibrate_s": seconds, "calibrate_cpu_s": cpu, "success": bool(result.success), "iterations": int(result.solve.nit),
             "parameters": len(result.params.free_names), "train_rmse_mm": train.rmse_norm,
             "validation_rmse_mm": val.rmse_norm}
 
@@ -94,7 +95,8 @@ def report(runs: dict, repeats: int) -> list[str]:
              "| | robocal (full_bl.yaml) | FIGAROH 1.0.2 (full_params) | FIGAROH / robocal |", "|---|---|---|---|"]
     fig = runs["figaroh"]
     if not fig:
-        lines += [f"| calibrate() | {spread(fit_r)} | | |",
+        lines += [f"| calibrate(), wall | {spread(fit_r)} | | |",
+                  f"| calibrate(), CPU time | {spread([r['calibrate_cpu_s'] for r in rob])} | | |",
                   f"| `robocal calibrate --no-report`, process start to exit | {spread(runs['robocal_cli'])} | | |",
                   f"| parameters / iterations | {rob[0]['parameters']} / {rob[0]['iterations']} | | |",
                   f"| training RMSE (37 postures) | {rob[0]['train_rmse_mm']:.2f} | | |",
@@ -102,9 +104,12 @@ def report(runs: dict, repeats: int) -> list[str]:
         return lines
     fit_f = [f["solve_optimisation_s"] for f in fig]
     fit_ratio = np.median(fit_f) / np.median(fit_r)
+    cpu_r, cpu_f = [r["calibrate_cpu_s"] for r in rob], [f["solve_optimisation_cpu_s"] for f in fig]
+    cpu_ratio = np.median(cpu_f) / np.median(cpu_r)
     e2e_ratio = np.median(runs["figaroh_script"]) / np.median(runs["robocal_cli"])
     lines += [
-        f"| fit: calibrate() / solve_optimisation() | {spread(fit_r)} | {spread(fit_f)} | {fit_ratio:.1f}x |",
+        f"| fit: calibrate() / solve_optimisation(), wall | {spread(fit_r)} | {spread(fit_f)} | {fit_ratio:.1f}x |",
+        f"| the same, CPU time of the process | {spread(cpu_r)} | {spread(cpu_f)} | {cpu_ratio:.1f}x |",
         f"| FIGAROH's set-up before it: config, data, initialize() (its parameter selection) | | "
         f"{spread([f['build_initialize_s'] for f in fig])} | |",
         f"| end to end: `robocal calibrate --no-report` / FIGAROH driver script | {spread(runs['robocal_cli'])} | "
@@ -116,8 +121,9 @@ def report(runs: dict, repeats: int) -> list[str]:
         f"| validation RMSE (62 postures) | {rob[0]['validation_rmse_mm']:.2f} | "
         f"{fig[0]['validation_rmse_mm']:.2f} | |",
         "",
-        f"issue 20 asks calibrate() >= {ISSUE_FIT_RATIO:g}x faster than solve_optimisation(): measured "
-        f"{fit_ratio:.1f}x, {'met' if fit_ratio >= ISSUE_FIT_RATIO else 'NOT met'}; end to end >= "
+        f"issue 37 asks calibrate() >= {ISSUE_FIT_RATIO:g}x faster than solve_optimisation(): measured "
+        f"{fit_ratio:.1f}x wall, {cpu_ratio:.1f}x CPU, "
+        f"{'met' if min(fit_ratio, cpu_ratio) >= ISSUE_FIT_RATIO else 'NOT met'}; issue 20: end to end >= "
         f"{ISSUE_END_TO_END_RATIO:g}x: measured {e2e_ratio:.1f}x, "
         f"{'met' if e2e_ratio >= ISSUE_END_TO_END_RATIO else 'NOT met'}; same or lower RMSE: training "
         f"{'yes' if rob[0]['train_rmse_mm'] <= fig[0]['train_rmse_mm'] else 'NO'}, validation "

@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.linalg
+import scipy.linalg.lapack
 
 NEGLIGIBLE = 1e-12
 PARTICIPATES = 0.1  # share of the weakest singular vector that makes a parameter part of a dependency
@@ -161,6 +162,11 @@ def covariance(J: np.ndarray, sigma2: float = 1.0) -> np.ndarray:
     """sigma2 * (J^T J)^-1 by QR of J (no squared conditioning). J must have full column rank."""
     if J.shape[1] == 0:
         return np.zeros((0, 0))
-    R = scipy.linalg.qr(J, mode="r")[0][: J.shape[1]]
-    Rinv = scipy.linalg.solve_triangular(R, np.eye(R.shape[0]))
+    n = J.shape[1]
+    # a square upper triangle (a fit's R factor) is its own R: LAPACK's QR would return it unchanged
+    triangular = J.shape[0] == n and not np.any(np.tril(J, -1))
+    R = np.asarray(J, dtype=float) if triangular else scipy.linalg.qr(J, mode="r")[0][:n]
+    Rinv, info = scipy.linalg.lapack.dtrtrs(R, np.eye(n))       # what solve_triangular calls, without its checks
+    if info > 0:
+        raise np.linalg.LinAlgError("covariance of a rank-deficient Jacobian")
     return sigma2 * (Rinv @ Rinv.T)
