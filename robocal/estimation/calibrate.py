@@ -25,7 +25,7 @@ from robocal.estimation.physical_scale import (DETERMINED_ANGLE, DETERMINED_LENG
 from robocal.estimation.findings import find
 from robocal.estimation.plausibility import check_fit, nominal_values
 from robocal.estimation.registration import (DefaultPrior, apply_default_prior, data_rows, register_nominal,
-                                             subset_evaluation, with_current_priors)
+                                             evaluate_with_free, subset_evaluation, with_current_priors)
 from robocal.estimation.problem import Evaluation, Problem
 from robocal.estimation.session_figures import session_figures
 from robocal.estimation.result import BlockStats, CalibrationResult, block_statistics
@@ -33,6 +33,8 @@ from robocal.estimation.solve import Iteration, levenberg_marquardt, r_factor, t
 
 log = logging.getLogger(__name__)
 MAX_SELECTION_PASSES = 3
+WIDE_REGISTRATION = 1_000_000   # Jacobian entries (rows x requested parameters) up to which the registration's
+                                # passes evaluate every column (fit_subset's wide)
 
 
 @dataclass
@@ -76,7 +78,10 @@ def calibrate(problem: Problem, options: CalibrationOptions | None = None,
             f"fix parameters")
     if not np.all(np.isfinite(start.r)):
         raise IdentifiabilityError(f"{source}: the residuals are not finite at the initial parameters")
-    registered = (register_nominal(problem, opt, None if chunked else start)
+    # a small problem's registration evaluates every column (cheap next to a pass's fixed cost): its last pass
+    # then serves the default prior's linearisation at the registered frames
+    wide = opt.regularisation == "auto" and not chunked and m * len(requested) <= WIDE_REGISTRATION
+    registered = (register_nominal(problem, opt, None if chunked else start, wide)
                   if opt.register_before or opt.regularisation == "auto" else None)
     default_prior = (apply_default_prior(problem, registered, scales, opt.rank_rtol, opt.chunk_terms)
                      if opt.regularisation == "auto" else DefaultPrior("none", False))
@@ -91,7 +96,7 @@ def calibrate(problem: Problem, options: CalibrationOptions | None = None,
     before = registered.before if registered is not None and opt.register_before else block_statistics(problem, ev0)
 
     last = {}
-    wide: list = []      # (x, evaluation with every requested parameter free) of the last passes, when `widen`
+    wide_passes: list = []   # (x, evaluation with every requested parameter free) of the last passes, when `widen`
 
     def fun(x):
         if "x" in last and last["x"].shape == np.shape(x) and np.array_equal(last["x"], x):
@@ -99,9 +104,9 @@ def calibrate(problem: Problem, options: CalibrationOptions | None = None,
             return ev.r, ev.J, ev.group
         params.set_free_values(x)
         if widen:
-            ev_all = _evaluate_requested(problem, evaluate, requested)
+            ev_all = evaluate_with_free(problem, evaluate, requested)
             ev = subset_evaluation(problem, ev_all, params.free_names, requested)
-            wide[:] = wide[-2:] + [(np.array(x), ev_all)]
+            wide_passes[:] = wide_passes[-2:] + [(np.array(x), ev_all)]
         else:
             ev = evaluate()
         last["x"], last["ev"] = np.array(x), ev
@@ -120,12 +125,12 @@ def calibrate(problem: Problem, options: CalibrationOptions | None = None,
     first = select_base_parameters(start[:len(requested), :len(requested)], requested, opt.rank_rtol)
     prior_only = [requested[j] for j in first.dependent if j in with_prior]     # kept only by their prior
     selection = _apply_selection(params, requested, None, opt.rank_rtol, first.keep_also(with_prior))
-    kept = [requested.index(n) for n in params.free_names]          # the solver starts where ev0 was taken
+    kept = [requested.index(n) for n in params.free_names]
     first_triangle = None
-    if not chunked:
+    if not chunked:                    # the solver starts where ev0 was taken
         last["x"], last["ev"] = params.free_values(), Evaluation(ev0.r, ev0.J[:, kept], ev0.raw, ev0.group)
         first_triangle = columns_triangle(start, kept, ev0, start_rows)
-        wide.append((last["x"], ev0))
+        wide_passes.append((last["x"], ev0))
     for _attempt in range(MAX_SELECTION_PASSES):
         # parameters without effect at the start are examined again at the solution: the solver's passes then
         # evaluate every requested column (a wider GEMM), so its last one serves that check too
@@ -142,9 +147,9 @@ def calibrate(problem: Problem, options: CalibrationOptions | None = None,
         for name in requested:
             params[name].vary = True
         allowed = set(selection.independent) | set(hidden)
-        ev_all = next((e for xw, e in wide if xw.shape == sol.x.shape and np.array_equal(xw, sol.x)), None)
+        ev_all = next((e for xw, e in wide_passes if xw.shape == sol.x.shape and np.array_equal(xw, sol.x)), None)
         ev_all = ev_all if ev_all is not None else evaluate()
-        wide.clear()
+        wide_passes.clear()
         again_data = select_base_parameters(triangle(ev_all.J, ev_all.r, None, len(requested), start_rows)[:-1, :-1],
                                             requested, opt.rank_rtol, allowed)
         prior_only = [requested[j] for j in again_data.dependent if j in with_prior]
@@ -225,20 +230,6 @@ def columns_triangle(T: np.ndarray, kept: list[int], ev: Evaluation, data_rows: 
     others = np.flatnonzero(~data_rows)
     block = np.vstack([T[:, cols], np.column_stack([ev.J[others][:, kept], ev.r[others]])])
     return r_factor(block, overwrite=True)
-
-
-def _evaluate_requested(problem, evaluate, requested: list[str]) -> Evaluation:
-    """The evaluation at the current values with every requested parameter free; the free flags are restored."""
-    params = problem.params
-    flags = [params[n].vary for n in requested]
-    try:
-        for name in requested:
-            params[name].vary = True
-        return evaluate()
-    finally:
-        for name, vary in zip(requested, flags):
-            params[name].vary = vary
-        problem.blocks = problem.layout()
 
 
 def _apply_selection(params, requested, J, rtol, selection=None):

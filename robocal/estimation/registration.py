@@ -32,6 +32,9 @@ class Registered:
     values: dict[str, float]         # their values after the registration
     before: list                     # BlockStats of the registered nominal model
     message: str = ""
+    success: bool = False            # the registration's solver converged
+    evaluation: Evaluation | None = None    # at the registered values with every free parameter varying, when
+                                            # the registration's passes evaluated all of them (`wide`)
 
 
 @dataclass
@@ -105,17 +108,34 @@ def with_current_priors(problem, ev: Evaluation) -> Evaluation:
                       np.concatenate([ev.group[:m_data], np.arange(first_prior, first_prior + len(pr))]))
 
 
-def fit_subset(problem, names: list[str], options, last: dict | None = None, start: Evaluation | None = None):
+def evaluate_with_free(problem, evaluate, names: list[str]) -> Evaluation:
+    """`evaluate()` at the current values with `names` free as well; the free flags are restored."""
+    params = problem.params
+    flags = [params[n].vary for n in names]
+    try:
+        for name in names:
+            params[name].vary = True
+        return evaluate()
+    finally:
+        for name, vary in zip(names, flags):
+            params[name].vary = vary
+        problem.blocks = problem.layout()
+
+
+def fit_subset(problem, names: list[str], options, last: dict | None = None, start: Evaluation | None = None,
+               wide: bool = False):
     """Fit only `names` (the rest held at their values); values stay at the fit, `vary` flags are restored.
     last: if given, receives the solver's last evaluation ('x', 'ev'), so that a caller evaluating at the
     solution with the same free set need not evaluate again. start: the problem's evaluation at the current
     values with every free parameter varying (whole Jacobian), if the caller has it: the solver's first
-    evaluation is then taken from it (subset_evaluation) instead of a pass over the samples."""
+    evaluation is then taken from it (subset_evaluation) instead of a pass over the samples. wide: every pass
+    evaluates all the free parameters' columns (sliced for the solver); last['wide'] then holds the last one."""
     params = problem.params
     free = params.free_names
     fixed_now = [n for n in names if not params[n].vary]
     last = {} if last is None else last
     first = subset_evaluation(problem, start, names) if start is not None and not fixed_now else None
+    wide = wide and not fixed_now
     x0 = params.value_array([n for n in free if n in names])
     try:
         for n in free:
@@ -127,11 +147,15 @@ def fit_subset(problem, names: list[str], options, last: dict | None = None, sta
 
         def fun(x):
             if first is not None and np.array_equal(x, x0):
-                ev = first
+                ev, ev_all = first, start
             else:
                 params.set_free_values(x)
-                ev = evaluate()
-            last["x"], last["ev"] = np.array(x), ev
+                if wide:
+                    ev_all = evaluate_with_free(problem, evaluate, free)
+                    ev = subset_evaluation(problem, ev_all, names, free)
+                else:
+                    ev, ev_all = evaluate(), None
+            last["x"], last["ev"], last["wide"] = np.array(x), ev, ev_all if wide else None
             return ev.r, ev.J, ev.group
 
         sol = levenberg_marquardt(fun, params.free_values(), *params.free_bounds(), loss=options.loss,
@@ -146,10 +170,11 @@ def fit_subset(problem, names: list[str], options, last: dict | None = None, sta
     return sol
 
 
-def register_nominal(problem, options, evaluation: Evaluation | None = None) -> Registered:
+def register_nominal(problem, options, evaluation: Evaluation | None = None, wide: bool = False) -> Registered:
     """Fit the registration parameters alone (robot at nominal); the problem's parameters are restored.
     evaluation: the evaluation at the current values with every free parameter varying, if the caller has it
-    (fit_subset's start)."""
+    (fit_subset's start). wide: the passes evaluate every free column (fit_subset), so that the result carries
+    the evaluation at the registered values (the default prior's linearisation, the fit's start)."""
     params = problem.params
     free = params.free_names
     measured = measured_frames(problem)
@@ -158,7 +183,7 @@ def register_nominal(problem, options, evaluation: Evaluation | None = None) -> 
     warm = copy.deepcopy(problem.warm_starts)   # closed chains assemble from the last solution: keep the fit's
     last: dict = {}
     try:
-        sol = fit_subset(problem, reg, options, last, evaluation) if reg else None
+        sol = fit_subset(problem, reg, options, last, evaluation, wide) if reg else None
         message = sol.message if sol is not None else "nothing to register"
         for n in free:
             params[n].vary = n in reg      # the "before" layout: no prior rows of the robot parameters
@@ -171,7 +196,9 @@ def register_nominal(problem, options, evaluation: Evaluation | None = None) -> 
             params[n].vary = True
         params.set_values(start)
         problem.warm_starts = warm
-    return Registered(reg, values, before, message)
+        problem.blocks = problem.layout()
+    return Registered(reg, values, before, message, sol is not None and sol.success,
+                      last.get("wide") if at_solution else None)
 
 
 def apply_default_prior(problem, registered: Registered, scales, rtol: float,
@@ -183,17 +210,20 @@ def apply_default_prior(problem, registered: Registered, scales, rtol: float,
     candidates = {n for n in free if n in scales.scale and params[n].prior_sigma is None}
     if not candidates:
         return DefaultPrior("auto", False, reason="no robot parameter without a prior")
-    start = params.values()
-    warm = copy.deepcopy(problem.warm_starts)
-    try:
-        x = params.free_values()
-        for k, n in enumerate(free):
-            x[k] = registered.values.get(n, x[k])
-        params.set_free_values(x)               # followers of the registration frames move with them
-        ev = evaluator(problem, chunk_terms)[0]()
-    finally:
-        params.set_values(start)
-        problem.warm_starts = warm
+    if registered.evaluation is not None:       # the registration's last pass, with every column
+        ev = registered.evaluation
+    else:
+        start = params.values()
+        warm = copy.deepcopy(problem.warm_starts)
+        try:
+            x = params.free_values()
+            for k, n in enumerate(free):
+                x[k] = registered.values.get(n, x[k])
+            params.set_free_values(x)               # followers of the registration frames move with them
+            ev = evaluator(problem, chunk_terms)[0]()
+        finally:
+            params.set_values(start)
+            problem.warm_starts = warm
     rows = data_rows(problem, len(ev.r))
     # the data rows enter only through inner products of [J r]'s columns: its triangle T (T^T T = [J r]^T [J r])
     # serves the selection and the evidence in place of the m rows, from one factorisation
