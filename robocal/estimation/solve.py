@@ -242,21 +242,27 @@ def triangle(J, r: np.ndarray, w: np.ndarray | None, n: int, rows: np.ndarray | 
     return stacked[:k] if len(blocks) <= 1 else r_factor(stacked, overwrite=True)
 
 
-QR_PANEL = 8     # dgeqrt's block size: measured ~1.7x faster than dgeqrf on 2000 x 38..55 blocks
+QR_PANEL = 8         # geqrt's block size, for blocks wider than UNBLOCKED_QR
+UNBLOCKED_QR = 80    # columns up to which plain Householder QR (geqrf, which LAPACK runs unblocked below 128
+                     # columns) is faster on a fit's blocks than compact-WY geqrt: measured on 2000-row blocks
+                     # 20 against 25 ms at 55 columns, 7 against 12 at 31, 1.5 against 3.9 at 13; slower from
+                     # ~100 columns (docs/speed.md)
 
 
 def r_factor(A: np.ndarray, overwrite: bool = False) -> np.ndarray:
     """(k, k) upper-triangular R with R^T R = A^T A for an (m, k) array (rows of zeros below when m < k).
-    LAPACK geqrt (compact-WY QR with small panels) on a column-major copy of A, or on A itself when it is
-    column-major and `overwrite`: much faster than scipy.linalg.qr(mode='r'), which copies A and returns the
-    full (m, k) R, and than geqrf on the tall, narrow blocks a fit factors."""
+    LAPACK geqrf (narrow A) or geqrt (compact-WY QR with small panels) on a column-major copy of A, or on A
+    itself when it is column-major and `overwrite`: much faster than scipy.linalg.qr(mode='r'), which copies A
+    and returns the full (m, k) R."""
     m, k = A.shape
     R = np.zeros((0, k))
     if m and k:
-        qr, _t, info = scipy.linalg.lapack.dgeqrt(max(1, min(QR_PANEL, m, k)),
-                                                  np.array(A, order="F", copy=None if overwrite else True),
-                                                  overwrite_a=True)
+        work = np.array(A, order="F", copy=None if overwrite else True)
+        if k <= UNBLOCKED_QR:
+            qr, _tau, _work, info = scipy.linalg.lapack.dgeqrf(work, overwrite_a=True)
+        else:
+            qr, _t, info = scipy.linalg.lapack.dgeqrt(max(1, min(QR_PANEL, m, k)), work, overwrite_a=True)
         if info != 0:
-            raise ValueError(f"LAPACK dgeqrt failed (info {info})")
+            raise ValueError(f"LAPACK QR failed (info {info})")
         R = np.triu(qr[:k])
     return np.vstack([R, np.zeros((k - len(R), k))]) if len(R) < k else R
