@@ -256,7 +256,8 @@ class BatchKinematics:
             parts.add(cols, (model.frames[fid].placement.toActionMatrix() @ ms.P_frame[fid])[:, cols])
         if ms.has_base_params:                 # the base's own columns only
             cols = ms.layout.base_columns
-            parts.add(cols, adjoint_inverse(Ri, pi) @ ms.P_base[:, cols])
+            P = ms.P_base[:, cols]         # a stack times one matrix as one GEMM
+            parts.add(cols, (adjoint_inverse(Ri, pi).reshape(-1, 6) @ P).reshape(n, 6, P.shape[1]))
         return parts
 
 
