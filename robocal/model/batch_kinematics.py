@@ -77,13 +77,11 @@ class SampleConstants:
         self.values = values.copy()
         self.configurations = robot_configuration_map(robot, joint_names)
         self.tau = None
+        model = robot.model
+        data = model.createData()      # one workspace for these and for the batched passes (same structure)
         if needs_gravity:
-            model = robot.model
-            data = model.createData()
             self.tau = np.array([pin.computeGeneralizedGravity(model, data, q)[v_index]
                                  for q in self.configurations(values)])
-        model = robot.model
-        data = model.createData()
         pin.computeJointJacobians(model, data, pin.neutral(model))
         self.subspace = np.zeros((model.nv, 6))      # row v: S of the joint owning velocity v (LOCAL)
         for jid in range(1, model.njoints):
@@ -94,7 +92,7 @@ class SampleConstants:
         self.regressors: dict = {}                  # joint id -> (samples, q, joint_key, regressors) of the last pass
         self.offset_map = None          # (P_offset, its twist-map rows, any non-zero) of the last layout
         self.gemm_plans: dict = {}      # joint id -> (layout, its regressor's columns that can be non-zero, GemmBlocks)
-        self.data = None                            # Pinocchio workspace of the batched passes
+        self.data = data                # Pinocchio workspace of the batched passes (any model of this structure)
 
     def matches(self, values: np.ndarray) -> bool:
         return self.values.shape == values.shape and np.array_equal(self.values, values)
