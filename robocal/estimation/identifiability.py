@@ -118,6 +118,12 @@ def select_base_parameters(J: np.ndarray, names: list[str] | None = None, rtol: 
     scaled[:, live] = J[:, live] / norms[live]
     # Same column geometry in an n x n matrix: R^T R = J^T J.
     W = scipy.linalg.qr(scaled, mode="r")[0][:n] if m > n else scaled.copy()
+    if n and m >= n and live.all() and (allowed is None or set(range(n)) <= set(allowed)):
+        # full rank with room to spare: every column's remaining norm is at least sigma_min, and sigma_max is at
+        # least 1 (unit columns), so the walk below would keep them all and the singular-value test pass
+        sv = np.linalg.svd(W, compute_uv=False)
+        if sv[-1] > 2.0 * rtol * sv[0]:
+            return BaseSelection(names, list(range(n)), [], np.zeros((n, 0)), float(sv[0] / sv[-1]), W, rtol, sv)
     chosen: list[int] = []
     basis = np.zeros((W.shape[0], n))   # orthonormal columns 0..k-1 span the chosen columns
     for j in range(n):
@@ -144,7 +150,7 @@ def select_base_parameters(J: np.ndarray, names: list[str] | None = None, rtol: 
         chosen.pop(max(k for k in range(len(chosen)) if v[k] > PARTICIPATES * v.max()))
         sv = np.zeros(0)
     independent = sorted(chosen)
-    dependent = [j for j in range(n) if j not in chosen]
+    dependent = sorted(set(range(n)) - set(chosen))
     if independent and dependent:
         beta = np.linalg.lstsq(W[:, independent], W[:, dependent], rcond=None)[0]
         s_in = np.where(live[independent], norms[independent], 1.0)
