@@ -153,15 +153,21 @@ class BatchKinematics:
             fk(model, data, qi)
             out[row] = regressor(model, data, jid, LOCAL)
         if out.nbytes <= CACHE_BYTES:
-            self.constants.regressors[jid] = (samples.copy(), q, self.ms.joint_key, out)
+            self.constants.regressors[jid] = (samples.copy(), q, self.ms.joint_key, out, {})
         return out
+
+    def derived(self, jid: int, reg: np.ndarray) -> dict:
+        """What is worked out from joint jid's regressors `reg` (its poses, their supporting columns, ...), kept
+        with them: a pass that reuses the regressors reuses these (a fresh dict when they are not kept)."""
+        hit = self.constants.regressors.get(jid)
+        return hit[4] if hit is not None and hit[3] is reg else {}
 
     def joint_poses(self, jid: int, reg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(R (n, 3, 3), p (n, 3)): joint jid's poses on the robot from its regressors `reg`, kept with them (the
         same key decides both: a pass that reuses the regressors reuses the poses)."""
-        hit = self.constants.regressors.get(jid)
-        if hit is not None and hit[3] is reg and len(hit) > 4:
-            return hit[4]
+        kept = self.derived(jid, reg)
+        if "poses" in kept:
+            return kept["poses"]
         model = self.model
         j0 = model.supports[jid][1]
         block = reg[:, :, 6 * (j0 - 1):6 * j0]     # Ad(X_j0), X_j0 = oMi^-1 jointPlacement(j0)
@@ -171,8 +177,7 @@ class BatchKinematics:
         root = model.jointPlacements[j0]
         Ri = root.rotation @ transpose(RX)
         pi = root.translation - np.einsum("nij,nj->ni", Ri, pX)
-        if hit is not None and hit[3] is reg:
-            self.constants.regressors[jid] = hit[:4] + ((Ri, pi),)
+        kept["poses"] = Ri, pi
         return Ri, pi
 
     def twist_map(self, ms) -> np.ndarray:
@@ -233,6 +238,7 @@ class BatchKinematics:
             # joints that support the frame have non-zero regressor columns (a branched tree: the others are
             # skipped, same product)
             parent = model.frames[fid].parentJoint
+            kept = self.derived(parent, reg)
             plan = self.constants.gemm_plans.get(parent)
             if plan is None or plan[0] is not ms.layout:
                 plan = self.constants.gemm_plans[parent] = (ms.layout, supporting_columns(model, parent),
@@ -241,7 +247,9 @@ class BatchKinematics:
             if len(support) == 6 * nj:
                 parts.regressors, parts.tmap = reg, tmap
             else:
-                parts.regressors, parts.tmap = reg[:, :, support], tmap[support]
+                if "support" not in kept:
+                    kept["support"] = reg[:, :, support]
+                parts.regressors, parts.tmap = kept["support"], tmap[support]
         if ms.compliance_cols or ms.backlash_cols:
             Jq = np.einsum("nijk,jk->nij", reg.reshape(n, 6, nj, 6), self.constants.subspace)   # (n, 6, nv)
             tau = self.constants.tau
@@ -255,7 +263,10 @@ class BatchKinematics:
         if ms.has_base_params:                 # the base's own columns only
             cols = ms.layout.base_columns
             P = ms.P_base[:, cols]         # a stack times one matrix as one GEMM
-            parts.add(cols, (adjoint_inverse(Ri, pi).reshape(-1, 6) @ P).reshape(n, 6, P.shape[1]))
+            kept = self.derived(model.frames[fid].parentJoint, reg) if model.frames[fid].parentJoint else {}
+            if "base" not in kept:
+                kept["base"] = adjoint_inverse(Ri, pi).reshape(-1, 6)
+            parts.add(cols, (kept["base"] @ P).reshape(n, 6, P.shape[1]))
         return parts
 
 
