@@ -69,7 +69,7 @@ class ModelState:
             if kind == "joint_placement" and not moved:     # Jexp6(0) is exactly the identity too
                 self.P_joint[6 * (group.index - 1):6 * group.index] += group.selector
                 continue
-            twist = pin.Motion(delta)
+            twist = delta             # exp6 and Jexp6 take the 6-vector itself (no Motion: ten times faster)
             block = pin.Jexp6(twist) @ group.selector
             if kind == "joint_placement":
                 jid = group.index
