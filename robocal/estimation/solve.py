@@ -264,5 +264,18 @@ def r_factor(A: np.ndarray, overwrite: bool = False) -> np.ndarray:
             qr, _t, info = scipy.linalg.lapack.dgeqrt(max(1, min(QR_PANEL, m, k)), work, overwrite_a=True)
         if info != 0:
             raise ValueError(f"LAPACK QR failed (info {info})")
-        R = np.triu(qr[:k])
+        R = qr[:k].copy()
+        R[_below_diagonal(R.shape)] = 0.0      # np.triu's result, without its mask built at every call
     return np.vstack([R, np.zeros((k - len(R), k))]) if len(R) < k else R
+
+
+_MASKS: dict = {}
+
+
+def _below_diagonal(shape: tuple[int, int]) -> np.ndarray:
+    mask = _MASKS.get(shape)
+    if mask is None:
+        if len(_MASKS) > 64:       # a handful of shapes a fit; bounded in a long-running process
+            _MASKS.clear()
+        mask = _MASKS[shape] = np.tril(np.ones(shape, dtype=bool), -1)
+    return mask
