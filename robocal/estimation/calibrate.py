@@ -70,7 +70,8 @@ def calibrate(problem: Problem, options: CalibrationOptions | None = None,
     # one evaluation at the start serves the checks, the registration's first step and (unless the default
     # prior changes the rows) the selection and the fit's first step: all at the same values
     evaluate, chunked = evaluator(problem, opt.chunk_terms)   # chunked: J is only ever its triangle
-    start = evaluate()
+    # (in chunks, a default prior's rows cannot be added to the triangles: there the check costs residuals only)
+    start = problem.evaluate(jacobian=False) if chunked and opt.regularisation == "auto" else evaluate()
     m = len(start.r)
     if m < len(requested):
         raise IdentifiabilityError(
@@ -87,7 +88,7 @@ def calibrate(problem: Problem, options: CalibrationOptions | None = None,
                      if opt.regularisation == "auto" else DefaultPrior("none", False))
     evaluate, was_chunked = evaluator(problem, opt.chunk_terms)[0], chunked
     chunked = evaluator(problem, opt.chunk_terms)[1]
-    if chunked != was_chunked or (chunked and default_prior.applied):
+    if chunked != was_chunked or start.J is None or (chunked and default_prior.applied):
         ev0 = evaluate()               # the layout of the full free set, with any prior
     else:
         ev0 = with_current_priors(problem, start) if default_prior.applied else start
