@@ -1,20 +1,23 @@
-"""TIAGo full-placement calibration, robocal against FIGAROH 1.0.2, measured in one run (issue 20).
+"""TIAGo full-placement calibration, robocal against FIGAROH 1.0.2, measured in one run (issues 20, 37).
 
     OMP_NUM_THREADS=1 python benchmarks/tiago_figaroh_calibration.py --figaroh [--figaroh-venv PATH] [--repeats N]
+                                                                      [--baseline DIR]
 
 robocal fits examples/tiago_mocap/full_bl.yaml; FIGAROH fits the same training session (37 postures, point
 BL) at its full_params level with benchmarks/figaroh/tiago_calibration.yaml, its driver converting robocal's
 shipped CSVs (benchmarks/figaroh/calibration_driver.py). In every repeat, alternating so that a change of the
 machine's load hits both alike, four fresh processes:
-- fit: robocal's calibrate() and FIGAROH's solve_optimisation(), each timed around that call alone, after
+- fit: robocal's calibrate() and FIGAROH's solve_optimisation(), each timed around that call alone (wall and
+  the process's CPU time, which waits for a shared core do not inflate), after
   the process has loaded the data and built its problem (FIGAROH's parameter selection runs before, in
   initialize(), and is printed apart; robocal's calibrate() includes its own);
 - end to end: `robocal calibrate full_bl.yaml -o DIR --no-report` and FIGAROH's whole driver script (fit,
   quality report, parameters written), each timed from process start to exit, both with their packages'
   bytecode compiled as pip leaves them (benchmarks/cli_timing.py).
-Medians over the repeats. RMSE (both tools, same postures): norm RMSE of BL's position error,
-sqrt(mean |e|^2) in mm, on the training session and on the validation session (62 postures, 2021-11-26),
-the model fitted on training only. Without --figaroh only robocal's side runs.
+--baseline DIR also times another robocal tree's calibrate() (e.g. `git archive <commit> robocal | tar -x -C
+DIR`) in fresh processes within each repeat. Medians over the repeats. RMSE (both tools, same postures): norm
+RMSE of BL's position error, sqrt(mean |e|^2) in mm, on the training session and on the validation session
+(62 postures, 2021-11-26), the model fitted on training only. Without --figaroh only robocal's side runs.
 """
 import argparse
 import json
@@ -26,7 +29,7 @@ from pathlib import Path
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))          # this tree's robocal, not an installed one
+sys.path.insert(0, os.environ.get("ROBOCAL_BENCH_TREE", str(ROOT)))   # this tree's robocal (--baseline: another's)
 sys.path.insert(1, str(ROOT / "benchmarks"))
 import numpy as np  # noqa: E402
 
@@ -59,8 +62,11 @@ def robocal_fit() -> dict:
             "validation_rmse_mm": val.rmse_norm}
 
 
-def robocal_fit_process() -> dict:
-    run = subprocess.run([sys.executable, __file__, "--robocal-fit"], capture_output=True, text=True, check=True)
+def robocal_fit_process(tree: str | None = None) -> dict:
+    """robocal_fit() in a fresh process, with this tree's robocal or `tree`'s (--baseline)."""
+    env = dict(os.environ, ROBOCAL_BENCH_TREE=os.path.abspath(tree)) if tree else None
+    run = subprocess.run([sys.executable, __file__, "--robocal-fit"], capture_output=True, text=True, check=True,
+                         env=env)
     return json.loads(run.stdout.strip().splitlines()[-1])
 
 
@@ -69,11 +75,14 @@ def figaroh_request(mode: str) -> dict:
             "training": str(TRAINING), "validation": str(VALIDATION)}
 
 
-def measure(python, repeats: int) -> dict:
-    """Per repeat, alternating: robocal fit, FIGAROH fit, robocal CLI, FIGAROH script. Lists of each."""
-    runs = {"robocal": [], "figaroh": [], "robocal_cli": [], "figaroh_script": []}
+def measure(python, repeats: int, baseline: str | None = None) -> dict:
+    """Per repeat, alternating: robocal fit, FIGAROH fit, robocal CLI, FIGAROH script (and the baseline tree's
+    fit). Lists of each."""
+    runs = {"robocal": [], "figaroh": [], "robocal_cli": [], "figaroh_script": [], "baseline": []}
     for _ in range(repeats):
         runs["robocal"].append(robocal_fit_process())
+        if baseline:
+            runs["baseline"].append(robocal_fit_process(baseline))
         if python:
             runs["figaroh"].append(run_driver(python, "calibration_driver.py", figaroh_request("fit"))[0])
         runs["robocal_cli"].append(robocal_cli_seconds(ROOT, CONFIG))
@@ -134,9 +143,16 @@ def report(runs: dict, repeats: int) -> list[str]:
     return lines
 
 
-def compare(python, repeats: int) -> None:
+def compare(python, repeats: int, baseline: str | None = None) -> None:
     """Run and print the comparison (robocal only when python is None)."""
-    print("\n".join(report(measure(python, repeats), repeats)))
+    runs = measure(python, repeats, baseline)
+    print("\n".join(report(runs, repeats)))
+    if baseline:
+        base, new = [r["calibrate_cpu_s"] for r in runs["baseline"]], [r["calibrate_cpu_s"] for r in runs["robocal"]]
+        print(f"baseline tree {baseline}: calibrate() CPU {spread(base)} ms against {spread(new)} ms, "
+              f"{np.median(base) / np.median(new):.2f}x; "
+              f"wall {spread([r['calibrate_s'] for r in runs['baseline']])} ms; "
+              f"{runs['baseline'][0]['parameters']} parameters, {runs['baseline'][0]['iterations']} iterations")
     print("The machine is shared with other jobs: compare the ratios within one run, not absolute times.")
 
 
@@ -144,12 +160,13 @@ def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     add_options(ap)
     ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--baseline", help="another robocal tree whose calibrate() is timed alongside (fresh processes)")
     ap.add_argument("--robocal-fit", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     if args.robocal_fit:              # child process of robocal_fit_process()
         print(json.dumps(robocal_fit()))
         return
-    compare(figaroh_python(args), args.repeats)
+    compare(figaroh_python(args), args.repeats, args.baseline)
 
 
 if __name__ == "__main__":
