@@ -1,7 +1,7 @@
 """Where one calibrate() spends its time: CPU per stage and per pass, each fit in a fresh process (issue 37).
 
     OMP_NUM_THREADS=1 python benchmarks/fit_profile.py [--config examples/tiago_mocap/full_bl.yaml | --ur5 N]
-                                                      [--runs 8] [--gc-off]
+                                                      [--runs 8] [--gc-off] [--tree DIR]
 
 Each run is a new process (as the FIGAROH comparison times it: the first calibrate() of a process pays the
 first calls of its LAPACK and numpy routines and of Pinocchio's Data); the stages are timed by wrapping the
@@ -23,9 +23,10 @@ STAGES = ("physical_scales", "register_nominal", "apply_default_prior", "select_
           "check_fit", "find")
 
 
-def one_fit(config: str | None, ur5: int | None, gc_off: bool) -> dict:
-    """In this process: build the problem, time calibrate() by stage and by pass (CPU seconds)."""
-    sys.path.insert(0, str(ROOT))
+def one_fit(config: str | None, ur5: int | None, gc_off: bool, tree: str | None = None) -> dict:
+    """In this process: build the problem, time calibrate() by stage and by pass (CPU seconds). tree: the robocal
+    tree to import (default this one)."""
+    sys.path.insert(0, tree or str(ROOT))
     sys.path.insert(1, str(ROOT / "tests"))
     import numpy as np
     import robocal.estimation.calibrate as calibrate_module
@@ -79,18 +80,20 @@ def main(argv=None) -> None:
     ap.add_argument("--ur5", type=int, help="a simulated UR5 pose calibration of N poses instead of --config")
     ap.add_argument("--runs", type=int, default=8)
     ap.add_argument("--gc-off", action="store_true")
+    ap.add_argument("--tree", help="profile another robocal tree (e.g. `git archive <commit> robocal | tar -x -C DIR`)")
     ap.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     if args.child:
-        print(json.dumps(one_fit(args.config, args.ur5, args.gc_off)))
+        print(json.dumps(one_fit(args.config, args.ur5, args.gc_off, args.tree)))
         return
     import numpy as np
     cmd = ([sys.executable, __file__, "--child", "--config", args.config]
-           + (["--ur5", str(args.ur5)] if args.ur5 else []) + (["--gc-off"] if args.gc_off else []))
+           + (["--ur5", str(args.ur5)] if args.ur5 else []) + (["--gc-off"] if args.gc_off else [])
+           + (["--tree", os.path.abspath(args.tree)] if args.tree else []))
     runs = [json.loads(subprocess.run(cmd, capture_output=True, text=True, check=True).stdout.strip().splitlines()[-1])
             for _ in range(args.runs)]
     ms = lambda v: 1e3 * float(np.median(v))       # noqa: E731
-    what = f"UR5, {args.ur5} poses" if args.ur5 else args.config
+    what = (f"UR5, {args.ur5} poses" if args.ur5 else args.config) + (f" (robocal of {args.tree})" if args.tree else "")
     print(f"{what}: calibrate() {ms([r['total'] for r in runs]):.2f} ms CPU (median of {args.runs} fresh processes"
           f"{', garbage collector off' if args.gc_off else ''}), {len(runs[0]['passes'])} passes, "
           f"{runs[0]['iterations']} iterations")
