@@ -71,27 +71,27 @@ def calibrate(problem: Problem, options: CalibrationOptions | None = None,
     # prior changes the rows) the selection and the fit's first step: all at the same values
     evaluate, chunked = evaluator(problem, opt.chunk_terms)   # chunked: J is only ever its triangle
     # (in chunks, a default prior's rows cannot be added to the triangles: there the check costs residuals only)
-    start = problem.evaluate(jacobian=False) if chunked and opt.regularisation == "auto" else evaluate()
-    m = len(start.r)
+    start_ev = problem.evaluate(jacobian=False) if chunked and opt.regularisation == "auto" else evaluate()
+    m = len(start_ev.r)
     if m < len(requested):
         raise IdentifiabilityError(
             f"{source}: {m} measurement rows cannot determine {len(requested)} free parameters; add samples or "
             f"fix parameters")
-    if not np.all(np.isfinite(start.r)):
+    if not np.all(np.isfinite(start_ev.r)):
         raise IdentifiabilityError(f"{source}: the residuals are not finite at the initial parameters")
     # a small problem's registration evaluates every column (cheap next to a pass's fixed cost): its last pass
     # then serves the default prior's linearisation at the registered frames
     wide = opt.regularisation == "auto" and not chunked and m * len(requested) <= WIDE_REGISTRATION
-    registered = (register_nominal(problem, opt, None if chunked else start, wide)
+    registered = (register_nominal(problem, opt, None if chunked else start_ev, wide)
                   if opt.register_before or opt.regularisation == "auto" else None)
     default_prior = (apply_default_prior(problem, registered, scales, opt.rank_rtol, opt.chunk_terms)
                      if opt.regularisation == "auto" else DefaultPrior("none", False))
     evaluate, was_chunked = evaluator(problem, opt.chunk_terms)[0], chunked
     chunked = evaluator(problem, opt.chunk_terms)[1]
-    if chunked != was_chunked or start.J is None or (chunked and default_prior.applied):
+    if chunked != was_chunked or start_ev.J is None or (chunked and default_prior.applied):
         ev0 = evaluate()               # the layout of the full free set, with any prior
     else:
-        ev0 = with_current_priors(problem, start) if default_prior.applied else start
+        ev0 = with_current_priors(problem, start_ev) if default_prior.applied else start_ev
         problem.blocks = problem.layout()
     m = len(ev0.r)
     before = registered.before if registered is not None and opt.register_before else block_statistics(problem, ev0)
