@@ -9,15 +9,18 @@ Table 1, UR5 full calibration (joint offsets and placements, tool, base; 6D pose
   (Problem.evaluate). A joint placement moves by 1e-9 rad before every pass, as in a fit, so nothing
   kept from the previous pass applies. Below 10000 poses each of the four is timed 5 times in a row
   (median), the four in turn, 3 times over (median).
-Table 2, calibrate() wall time: batched vs the reference evaluation (with today's solver), and with
---baseline DIR the same fit run by another robocal tree (e.g. `git archive <commit> robocal | tar -x -C DIR`)
-in a subprocess. Table 3: TIAGo (examples/tiago_mocap/full_bl.yaml) calibrate() and the command line
-(robocal's bytecode compiled first, as pip leaves an installed package: benchmarks/cli_timing.py).
+Table 2, calibrate(): CPU time (wall in brackets), passes over the samples and solver iterations, batched vs
+the reference evaluation (with today's solver), and with --baseline DIR the same fit run by another robocal tree
+(e.g. `git archive <commit> robocal | tar -x -C DIR`) in a subprocess; against Pinocchio's FK + frame Jacobian
+over the same poses once (CPU, best of 3): the whole fit in such passes, and per solver iteration (issue 37).
+Table 3: TIAGo (examples/tiago_mocap/full_bl.yaml) calibrate() (CPU, passes) and the command line (wall;
+robocal's bytecode compiled first, as pip leaves an installed package: benchmarks/cli_timing.py).
 With --figaroh [--figaroh-venv PATH], Table 4 is benchmarks/tiago_figaroh_calibration.py run as a subprocess:
 the same TIAGo fit against FIGAROH 1.0.2 (installed into its own virtual environment), 3 repeats.
 Each figure is the median of 3 runs; the machine may be shared, so compare ratios within the run.
 """
 import argparse
+import json
 import os
 import subprocess
 import sys
@@ -97,48 +100,78 @@ def pass_costs(problem):
 
 
 def fit_time(n, reference=False):
-    """calibrate() seconds on a fresh UR5 problem of n poses (batched, or the reference evaluation)."""
+    """calibrate() on a fresh UR5 problem of n poses (batched, or the reference evaluation): wall and CPU
+    seconds, passes over the samples (Problem.evaluate calls) and solver iterations."""
     problem = ur5_problem(n)
-    if reference:
-        problem.evaluate = lambda jacobian=True, pb=problem: reference_evaluate(pb, jacobian)
-    t0 = time.perf_counter()
+    passes = []
+    evaluate = (lambda jacobian=True, pb=problem: reference_evaluate(pb, jacobian)) if reference else problem.evaluate
+    problem.evaluate = lambda jacobian=True: passes.append(1) or evaluate(jacobian)
+    t0, c0 = time.perf_counter(), time.process_time()
     result = calibrate(problem)
-    seconds = time.perf_counter() - t0
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     assert result.solve.success
-    return seconds
+    return wall, cpu, len(passes), result.solve.nit
 
 
 def baseline_fit_time(tree, n):
     env = dict(os.environ, ROBOCAL_BENCH_TREE=os.path.abspath(tree))
     run = subprocess.run([sys.executable, __file__, "--fit-only", str(n)], env=env, capture_output=True, text=True,
                          check=True)
-    return float(run.stdout.strip().splitlines()[-1])
+    return json.loads(run.stdout.strip().splitlines()[-1])
+
+
+def floor_pass(n):
+    """CPU seconds of Pinocchio's FK + frame Jacobian over n poses (computeJointJacobians, updateFramePlacement,
+    getFrameJacobian per pose), best of 3: the floor a pass is compared with."""
+    problem = ur5_problem(n)
+    model, fid = problem.robot.model, problem.robot.frame_id("tool0")
+    data = model.createData()
+    Q = np.array([problem.robot.configuration(problem.joint_names, v) for v in problem.values])
+    times = []
+    for _ in range(3):
+        c0 = time.process_time()
+        for q in Q:
+            pin.computeJointJacobians(model, data, q)
+            pin.updateFramePlacement(model, data, fid)
+            pin.getFrameJacobian(model, data, fid, pin.ReferenceFrame.LOCAL)
+        times.append(time.process_time() - c0)
+    return min(times)
 
 
 def fit_times(baseline):
-    """{n: (batched, reference, baseline or None)} median seconds; the variants alternate within each repeat
-    so that a change in the machine's load hits all of them alike."""
+    """{n: {variant: (wall, cpu, passes, iterations)}} medians over REPEATS; the variants alternate within each
+    repeat so that a change in the machine's load hits all of them alike."""
     out = {}
     for n in SIZES:
-        runs = [(fit_time(n), fit_time(n, reference=True), baseline_fit_time(baseline, n) if baseline else np.nan)
-                for _ in range(REPEATS)]
-        out[n] = np.median(np.array(runs), axis=0)
+        runs = {"batched": [], "reference": [], "baseline": []}
+        for _ in range(REPEATS):
+            runs["batched"].append(fit_time(n))
+            runs["reference"].append(fit_time(n, reference=True))
+            if baseline:
+                b = baseline_fit_time(baseline, n)
+                runs["baseline"].append((b["wall"], b["cpu"], b["passes"], b["nit"]))
+        out[n] = {k: tuple(np.median(np.array(v), axis=0)) if v else None for k, v in runs.items()}
+        out[n]["floor"] = floor_pass(n)
     return out
 
 
 def tiago_fit(reference):
+    """(CPU seconds, passes) of calibrate() on the TIAGo config (in this warm process)."""
     setup = load_config(TIAGO)
     problem = setup.problem
-    if reference:
-        problem.evaluate = lambda jacobian=True, pb=problem: reference_evaluate(pb, jacobian)
-    t0 = time.perf_counter()
+    passes = []
+    evaluate = (lambda jacobian=True, pb=problem: reference_evaluate(pb, jacobian)) if reference else problem.evaluate
+    problem.evaluate = lambda jacobian=True: passes.append(1) or evaluate(jacobian)
+    c0 = time.process_time()
     calibrate(problem, setup.options)
-    return time.perf_counter() - t0
+    return time.process_time() - c0, len(passes)
 
 
 def tiago_times():
-    """Median seconds: calibrate() batched, with the reference evaluation, and the command line end to end."""
-    runs = [(tiago_fit(False), tiago_fit(True), robocal_cli_seconds(Path(ROOT), Path(TIAGO))) for _ in range(REPEATS)]
+    """Medians: calibrate() batched (CPU s, passes), with the reference evaluation, and the command line end to end
+    (wall s)."""
+    runs = [(*tiago_fit(False), *tiago_fit(True), robocal_cli_seconds(Path(ROOT), Path(TIAGO)))
+            for _ in range(REPEATS)]
     return np.median(np.array(runs), axis=0)
 
 
@@ -149,7 +182,8 @@ def main():
     add_options(ap)
     args = ap.parse_args()
     if args.fit_only is not None:      # the --baseline subprocess: only what an older tree also has
-        print(fit_time(args.fit_only))
+        wall, cpu, passes, nit = fit_time(args.fit_only)
+        print(json.dumps({"wall": wall, "cpu": cpu, "passes": passes, "nit": int(nit)}))
         return
     print("UR5 residual-and-Jacobian pass, us per pose (median of 3)")
     print(f"{'poses':>7} {'FK+Jac':>8} {'FK+reg':>8} {'reference':>10} {'batched':>9} {'batched/FK+Jac':>15} "
@@ -158,18 +192,23 @@ def main():
         problem = ur5_problem(n)
         f_jac, f_reg, ref, new = np.median([pass_costs(problem) for _ in range(REPEATS)], axis=0)
         print(f"{n:>7} {f_jac:>8.2f} {f_reg:>8.2f} {ref:>10.2f} {new:>9.2f} {new / f_jac:>15.2f} {ref / new:>18.1f}")
-    print("\nUR5 calibrate() wall time, ms (median of 3)")
+    print("\nUR5 calibrate(), ms (median of 3; CPU time of this process, wall in brackets). FK+Jac: Pinocchio's floor "
+          "over the poses once (CPU, best of 3); per iteration: calibrate() CPU / (iterations x FK+Jac)")
     fits = fit_times(args.baseline)
-    print(f"{'poses':>7} {'batched':>9} {'reference':>10} {'ref/batched':>12}"
-          + (f" {'baseline':>9} {'baseline/batched':>17}" if args.baseline else ""))
-    for n, (new, ref, base) in fits.items():
-        line = f"{n:>7} {1e3 * new:>9.1f} {1e3 * ref:>10.1f} {ref / new:>12.1f}"
+    print(f"{'poses':>7} {'batched':>16} {'passes':>6} {'iter':>4} {'FK+Jac':>7} {'/FK+Jac':>8} {'/iteration':>10} "
+          f"{'reference':>17} {'ref/batched':>11}" + (f" {'baseline':>17} {'passes':>6} {'base/batched':>12}"
+                                                    if args.baseline else ""))
+    for n, f in fits.items():
+        (w, c, k, it), (rw, rc, _, _), floor = f["batched"], f["reference"], f["floor"]
+        line = (f"{n:>7} {1e3 * c:>7.1f} ({1e3 * w:>6.1f}) {k:>6.0f} {it:>4.0f} {1e3 * floor:>7.1f} {c / floor:>8.1f} "
+                f"{c / floor / it:>10.1f} {1e3 * rc:>7.1f} ({1e3 * rw:>7.1f}) {rc / c:>11.1f}")
         if args.baseline:
-            line += f" {1e3 * base:>9.1f} {base / new:>17.1f}"
+            bw, bc, bk, _ = f["baseline"]
+            line += f" {1e3 * bc:>7.1f} ({1e3 * bw:>7.1f}) {bk:>6.0f} {bc / c:>12.1f}"
         print(line)
-    new, ref, cli = tiago_times()
-    print(f"\nTIAGo full_bl (median of 3): calibrate() batched {1e3 * new:.1f} ms, reference {1e3 * ref:.1f} ms; "
-          f"`robocal calibrate --no-report` end to end {1e3 * cli:.0f} ms")
+    new, passes, ref, _, cli = tiago_times()
+    print(f"\nTIAGo full_bl (median of 3, CPU, warm process): calibrate() batched {1e3 * new:.1f} ms ({passes:.0f} "
+          f"passes), reference {1e3 * ref:.1f} ms; `robocal calibrate --no-report` end to end {1e3 * cli:.0f} ms (wall)")
     if not args.figaroh:
         print(skip_message())
         return

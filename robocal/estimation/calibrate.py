@@ -24,7 +24,8 @@ from robocal.estimation.physical_scale import (DETERMINED_ANGLE, DETERMINED_LENG
                                                physical_scales)
 from robocal.estimation.findings import find
 from robocal.estimation.plausibility import check_fit, nominal_values
-from robocal.estimation.registration import DefaultPrior, apply_default_prior, data_rows, register_nominal
+from robocal.estimation.registration import (DefaultPrior, apply_default_prior, data_rows, register_nominal,
+                                             evaluate_with_free, subset_evaluation, with_current_priors)
 from robocal.estimation.problem import Evaluation, Problem
 from robocal.estimation.session_figures import session_figures
 from robocal.estimation.result import BlockStats, CalibrationResult, block_statistics
@@ -32,6 +33,8 @@ from robocal.estimation.solve import Iteration, levenberg_marquardt, r_factor, t
 
 log = logging.getLogger(__name__)
 MAX_SELECTION_PASSES = 3
+WIDE_REGISTRATION = 1_000_000   # Jacobian entries (rows x requested parameters) up to which the registration's
+                                # passes evaluate every column (fit_subset's wide)
 
 
 @dataclass
@@ -66,31 +69,50 @@ def calibrate(problem: Problem, options: CalibrationOptions | None = None,
     nominal = nominal_values(params)
     scales = physical_scales(problem, opt.determined_length, opt.determined_angle)
     requested = params.free_names
-    ev0 = problem.evaluate(jacobian=False)
-    m = len(ev0.r)
+    # one evaluation at the start serves the checks, the registration's first step and (unless the default
+    # prior changes the rows) the selection and the fit's first step: all at the same values
+    evaluate, chunked = evaluator(problem, opt.chunk_terms)   # chunked: J is only ever its triangle
+    # (in chunks, a default prior's rows cannot be added to the triangles: there the check costs residuals only)
+    start_ev = problem.evaluate(jacobian=False) if chunked and opt.regularisation == "auto" else evaluate()
+    m = len(start_ev.r)
     if m < len(requested):
         raise IdentifiabilityError(
             f"{source}: {m} measurement rows cannot determine {len(requested)} free parameters; add samples or "
             f"fix parameters")
-    if not np.all(np.isfinite(ev0.r)):
+    if not np.all(np.isfinite(start_ev.r)):
         raise IdentifiabilityError(f"{source}: the residuals are not finite at the initial parameters")
-    registered = register_nominal(problem, opt) if opt.register_before or opt.regularisation == "auto" else None
+    # a small problem's registration evaluates every column (cheap next to a pass's fixed cost): its last pass
+    # then serves the default prior's linearisation at the registered frames
+    wide = opt.regularisation == "auto" and not chunked and m * len(requested) <= WIDE_REGISTRATION
+    registered = (register_nominal(problem, opt, None if chunked else start_ev, wide)
+                  if opt.register_before or opt.regularisation == "auto" else None)
     default_prior = (apply_default_prior(problem, registered, scales, opt.rank_rtol, opt.chunk_terms,
                                          opt.prior_strength)
                      if opt.regularisation == "auto" else DefaultPrior("none", False))
-    evaluate, chunked = evaluator(problem, opt.chunk_terms)   # chunked: J is only ever its triangle
-    ev0 = evaluate()                   # after the registration: the layout of the full free set, with any prior
+    evaluate, was_chunked = evaluator(problem, opt.chunk_terms)[0], chunked
+    chunked = evaluator(problem, opt.chunk_terms)[1]
+    if chunked != was_chunked or start_ev.J is None or (chunked and default_prior.applied):
+        ev0 = evaluate()               # the layout of the full free set, with any prior
+    else:
+        ev0 = with_current_priors(problem, start_ev) if default_prior.applied else start_ev
+        problem.blocks = problem.layout()
     m = len(ev0.r)
     before = registered.before if registered is not None and opt.register_before else block_statistics(problem, ev0)
 
     last = {}
+    wide_passes: list = []   # (x, evaluation with every requested parameter free) of the last passes, when `widen`
 
     def fun(x):
         if "x" in last and last["x"].shape == np.shape(x) and np.array_equal(last["x"], x):
             ev = last["ev"]
             return ev.r, ev.J, ev.group
         params.set_free_values(x)
-        ev = evaluate()
+        if widen:
+            ev_all = evaluate_with_free(problem, evaluate, requested)
+            ev = subset_evaluation(problem, ev_all, params.free_names, requested)
+            wide_passes[:] = wide_passes[-2:] + [(np.array(x), ev_all)]
+        else:
+            ev = evaluate()
         last["x"], last["ev"] = np.array(x), ev
         return ev.r, ev.J, ev.group
 
@@ -107,12 +129,16 @@ def calibrate(problem: Problem, options: CalibrationOptions | None = None,
     first = select_base_parameters(start[:len(requested), :len(requested)], requested, opt.rank_rtol)
     prior_only = [requested[j] for j in first.dependent if j in with_prior]     # kept only by their prior
     selection = _apply_selection(params, requested, None, opt.rank_rtol, first.keep_also(with_prior))
-    kept = [requested.index(n) for n in params.free_names]          # the solver starts where ev0 was taken
+    kept = [requested.index(n) for n in params.free_names]
     first_triangle = None
-    if not chunked:
+    if not chunked:                    # the solver starts where ev0 was taken
         last["x"], last["ev"] = params.free_values(), Evaluation(ev0.r, ev0.J[:, kept], ev0.raw, ev0.group)
         first_triangle = columns_triangle(start, kept, ev0, start_rows)
+        wide_passes.append((last["x"], ev0))
     for _attempt in range(MAX_SELECTION_PASSES):
+        # parameters without effect at the start are examined again at the solution: the solver's passes then
+        # evaluate every requested column (a wider GEMM), so its last one serves that check too
+        widen = bool(selection.no_effect) and not chunked and _attempt < MAX_SELECTION_PASSES - 1
         log.info("calibrating %d of %d requested parameters from %d rows", selection.rank, len(requested), m)
         lo, hi = params.free_bounds()
         sol = levenberg_marquardt(fun, params.free_values(), lo, hi, loss=opt.loss, f_scale=opt.f_scale,
@@ -125,7 +151,9 @@ def calibrate(problem: Problem, options: CalibrationOptions | None = None,
         for name in requested:
             params[name].vary = True
         allowed = set(selection.independent) | set(hidden)
-        ev_all = evaluate()
+        ev_all = next((e for xw, e in wide_passes if xw.shape == sol.x.shape and np.array_equal(xw, sol.x)), None)
+        ev_all = ev_all if ev_all is not None else evaluate()
+        wide_passes.clear()
         again_data = select_base_parameters(triangle(ev_all.J, ev_all.r, None, len(requested), start_rows)[:-1, :-1],
                                             requested, opt.rank_rtol, allowed)
         prior_only = [requested[j] for j in again_data.dependent if j in with_prior]

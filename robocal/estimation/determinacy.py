@@ -121,20 +121,27 @@ def classify(names, J_data: np.ndarray, noise2: float, thresholds: np.ndarray, s
             stderr[n], classes[n] = float("inf"), cls
     directions = []
     ratio = scales / thresholds          # the physical scale in thresholds, per column
-    for k in np.argsort(-cov_eig):
+    finite = np.isfinite(ratio)
+    ratio2 = np.where(finite, ratio, np.inf) ** 2
+    by_eig = np.argsort(-cov_eig)
+    wide = by_eig[:int(np.sum(np.sqrt(cov_eig) > 1.0))] if len(cov_eig) else by_eig     # weakest first
+    Vw = np.ascontiguousarray(V[:, wide].T)          # one direction a row: the arrays below at once
+    A = np.abs(Vw)
+    by_size = np.argsort(-A, axis=1)
+    largest = A.max(axis=1) if len(wide) else np.zeros(0)
+    # beyond scale: the direction's spread exceeds the physical scale of the parameters it moves
+    reach = np.sqrt(np.sum((Vw ** 2) / ratio2, axis=1))
+    for row, k in enumerate(wide):
         se = float(np.sqrt(cov_eig[k]))
-        if se <= 1.0:
-            break
-        v = V[:, k]
-        order = [i for i in np.argsort(-np.abs(v)) if abs(v[i]) > PARTICIPATES * np.abs(v).max()]
+        v, a, size_order = Vw[row], A[row], by_size[row]
+        order = size_order[a[size_order] > PARTICIPATES * largest[row]].tolist()
         sign = np.sign(v[order[0]]) or 1.0
-        terms = [(names[i], float(sign * v[i])) for i in order]
-        # beyond scale: the direction's spread exceeds the physical scale of the parameters it moves
-        reach = float(np.sqrt(np.sum((v ** 2) / np.where(np.isfinite(ratio), ratio, np.inf) ** 2)))
-        beyond = se * reach > 1.0 if reach > 0 else False
+        terms = list(zip([names[i] for i in order], (sign * v[order]).tolist()))
+        r = float(reach[row])
+        beyond = se * r > 1.0 if r > 0 else False
         # the prior decides it when every parameter of it with a physical scale has one (registration frames
         # have neither: the prior holds them through the robot parameters they are tied to)
-        scaled = [i for i in order if np.isfinite(ratio[i])]
+        scaled = [i for i in order if finite[i]]
         prior = beyond and bool(scaled) and all(names[i] in with_prior for i in scaled)
-        directions.append(Direction(terms, se, bool(beyond), prior, se * reach))
+        directions.append(Direction(terms, se, bool(beyond), prior, se * r))
     return Determinacy(stderr, classes, directions)

@@ -66,12 +66,23 @@ def is_registration(p: Parameter, measured: set[str]) -> bool:
 
 def robot_size(robot, joint_names) -> float:
     """Largest distance (m) between the origins of `joint_names` and the root, nominal zero configuration."""
-    data = robot.model.createData()
-    pin.forwardKinematics(robot.model, data, pin.neutral(robot.model))
-    pts = [np.zeros(3)] + [data.oMi[robot.joint_id(j)].translation.copy() for j in joint_names]
+    pts = [np.zeros(3)] + [joint_origin(robot.model, robot.joint_id(j)).translation.copy() for j in joint_names]
     pts = np.array(pts)
     spread = np.max(np.linalg.norm(pts[:, None] - pts[None], axis=2)) if len(pts) > 1 else 0.0
     return max(float(spread), MIN_SIZE)
+
+
+def joint_origin(model, jid: int) -> pin.SE3:
+    """Joint jid's placement at the neutral configuration, where every joint's own motion is the identity: the
+    product of the joint placements from the root (forward kinematics' own products, without a Data)."""
+    chain = []
+    while jid > 0:
+        chain.append(jid)
+        jid = model.parents[jid]
+    M = pin.SE3.Identity()
+    for j in reversed(chain):
+        M = M * model.jointPlacements[j]
+    return M
 
 
 @dataclass

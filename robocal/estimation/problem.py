@@ -84,6 +84,7 @@ class Problem:
         self.warm_starts: dict = {}
         self.closed_chain_cache: dict = {}   # closed chains: what stays between passes (robocal.model.closed_chain_batch)
         self._constants: SampleConstants | None = None
+        self._aux_names: dict = {}
 
     def layout(self) -> list[Block]:
         """The row blocks: one per residual (its kept rows times its terms), then the prior rows."""
@@ -117,6 +118,13 @@ class Problem:
         if self.sessions is None or not self.sessions.corrected:
             return []
         return [[col.get(n, []) for n in self.sessions.parameter_names(s)] for s in range(len(self.sessions.names))]
+
+    def aux_names(self, res: Residual) -> list[str]:
+        """The names of `res`'s auxiliary parameters (fixed at construction), worked out once per residual."""
+        names = self._aux_names.get(res)
+        if names is None:
+            names = self._aux_names[res] = [p.name for p in res.aux_parameters()]
+        return names
 
     def aux_values(self, res: Residual) -> np.ndarray:
         return np.array([self.params[p.name].value for p in res.aux_parameters()])
@@ -166,8 +174,8 @@ class Problem:
             scale = res.row_scale()
             keep = scale != 0
             n_keep = int(keep.sum())
-            aux_names = [p.name for p in res.aux_parameters()]
-            aux = np.array([self.params[n].value for n in aux_names])
+            aux_names = self.aux_names(res)
+            aux = self.params.value_array(aux_names)
             aux_cols = [(j, c, w) for j, n in enumerate(aux_names) for c, w in col.get(n, [])]
             step = res.n_terms if batch is None or not res.batched else (chunk_terms or res.n_terms)
             for k0 in range(0, res.n_terms, max(step, 1)):

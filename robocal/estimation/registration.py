@@ -17,6 +17,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from robocal.estimation.chunked_lstsq import evaluator
+from robocal.estimation.problem import Evaluation
+from robocal.residuals.prior import prior_rows
 from robocal.estimation.identifiability import select_base_parameters
 from robocal.estimation.physical_scale import is_registration, measured_frames
 from robocal.estimation.regularisation import choose_strength
@@ -30,6 +32,9 @@ class Registered:
     values: dict[str, float]         # their values after the registration
     before: list                     # BlockStats of the registered nominal model
     message: str = ""
+    success: bool = False            # the registration's solver converged
+    evaluation: Evaluation | None = None    # at the registered values with every free parameter varying, when
+                                            # the registration's passes evaluated all of them (`wide`)
 
 
 @dataclass
@@ -71,14 +76,70 @@ def data_rows(problem, n_rows: int) -> np.ndarray:
     return keep
 
 
-def fit_subset(problem, names: list[str], options, last: dict | None = None):
+def subset_evaluation(problem, ev: Evaluation, names: list[str], free: list[str] | None = None) -> Evaluation:
+    """What evaluating with only `names` free would give, from `ev`, taken at the same values with `free`
+    (default: the current free parameters) free: its columns of `names`, its data rows and the prior rows of
+    `names` (a prior row is its parameter's own). The residuals do not depend on which parameters are free,
+    nor a column on the other columns."""
+    params = problem.params
+    free = params.free_names if free is None else free
+    names, free_set = set(names), set(free)
+    cols = [k for k, n in enumerate(free) if n in names]     # the subset's columns come in the same order
+    with_prior = [p.name for p in params if p.prior_sigma is not None and (p.vary or p.name in free_set)]
+    n_prior = len(with_prior)
+    m_data = len(ev.r) - n_prior
+    if not any(n in names for n in with_prior):
+        rows = slice(0, m_data) if n_prior else slice(None)
+        return Evaluation(ev.r[rows], ev.J[rows][:, cols], ev.raw[rows], ev.group[rows])
+    kept = [m_data + k for k, n in enumerate(with_prior) if n in names]
+    rows = np.concatenate([np.arange(m_data), kept])
+    first_prior = sum(res.n_terms for res in problem.residuals)
+    group = np.concatenate([ev.group[:m_data], np.arange(first_prior, first_prior + len(kept))])
+    return Evaluation(ev.r[rows], ev.J[rows][:, cols], ev.raw[rows], group)
+
+
+def with_current_priors(problem, ev: Evaluation) -> Evaluation:
+    """`ev`, an evaluation at the current values with every free parameter varying, with its prior rows
+    replaced by those of the current layout (after priors were added): what evaluating again would give."""
+    problem.blocks = problem.layout()
+    last = problem.blocks[-1] if problem.blocks else None
+    m_data = last.rows.start if last is not None and last.type_name == "prior" else len(ev.r)
+    pr, pJ, _ = prior_rows(problem.params)
+    first_prior = sum(res.n_terms for res in problem.residuals)
+    return Evaluation(np.concatenate([ev.r[:m_data], pr]), np.vstack([ev.J[:m_data], pJ]),
+                      np.concatenate([ev.raw[:m_data], pr]),
+                      np.concatenate([ev.group[:m_data], np.arange(first_prior, first_prior + len(pr))]))
+
+
+def evaluate_with_free(problem, evaluate, names: list[str]) -> Evaluation:
+    """`evaluate()` at the current values with `names` free as well; the free flags are restored."""
+    params = problem.params
+    flags = [params[n].vary for n in names]
+    try:
+        for name in names:
+            params[name].vary = True
+        return evaluate()
+    finally:
+        for name, vary in zip(names, flags):
+            params[name].vary = vary
+        problem.blocks = problem.layout()
+
+
+def fit_subset(problem, names: list[str], options, last: dict | None = None, start: Evaluation | None = None,
+               wide: bool = False):
     """Fit only `names` (the rest held at their values); values stay at the fit, `vary` flags are restored.
     last: if given, receives the solver's last evaluation ('x', 'ev'), so that a caller evaluating at the
-    solution with the same free set need not evaluate again."""
+    solution with the same free set need not evaluate again. start: the problem's evaluation at the current
+    values with every free parameter varying (whole Jacobian), if the caller has it: the solver's first
+    evaluation is then taken from it (subset_evaluation) instead of a pass over the samples. wide: every pass
+    evaluates all the free parameters' columns (sliced for the solver); last['wide'] then holds the last one."""
     params = problem.params
     free = params.free_names
     fixed_now = [n for n in names if not params[n].vary]
     last = {} if last is None else last
+    first = subset_evaluation(problem, start, names) if start is not None and not fixed_now else None
+    wide = wide and not fixed_now
+    x0 = params.value_array([n for n in free if n in names])
     try:
         for n in free:
             params[n].vary = n in names
@@ -88,9 +149,16 @@ def fit_subset(problem, names: list[str], options, last: dict | None = None):
         evaluate = evaluator(problem, options.chunk_terms)[0]
 
         def fun(x):
-            params.set_free_values(x)
-            ev = evaluate()
-            last["x"], last["ev"] = np.array(x), ev
+            if first is not None and np.array_equal(x, x0):
+                ev, ev_all = first, start
+            else:
+                params.set_free_values(x)
+                if wide:
+                    ev_all = evaluate_with_free(problem, evaluate, free)
+                    ev = subset_evaluation(problem, ev_all, names, free)
+                else:
+                    ev, ev_all = evaluate(), None
+            last["x"], last["ev"], last["wide"] = np.array(x), ev, ev_all if wide else None
             return ev.r, ev.J, ev.group
 
         sol = levenberg_marquardt(fun, params.free_values(), *params.free_bounds(), loss=options.loss,
@@ -105,8 +173,11 @@ def fit_subset(problem, names: list[str], options, last: dict | None = None):
     return sol
 
 
-def register_nominal(problem, options) -> Registered:
-    """Fit the registration parameters alone (robot at nominal); the problem's parameters are restored."""
+def register_nominal(problem, options, evaluation: Evaluation | None = None, wide: bool = False) -> Registered:
+    """Fit the registration parameters alone (robot at nominal); the problem's parameters are restored.
+    evaluation: the evaluation at the current values with every free parameter varying, if the caller has it
+    (fit_subset's start). wide: the passes evaluate every free column (fit_subset), so that the result carries
+    the evaluation at the registered values (the default prior's linearisation, the fit's start)."""
     params = problem.params
     free = params.free_names
     measured = measured_frames(problem)
@@ -115,7 +186,7 @@ def register_nominal(problem, options) -> Registered:
     warm = copy.deepcopy(problem.warm_starts)   # closed chains assemble from the last solution: keep the fit's
     last: dict = {}
     try:
-        sol = fit_subset(problem, reg, options, last) if reg else None
+        sol = fit_subset(problem, reg, options, last, evaluation, wide) if reg else None
         message = sol.message if sol is not None else "nothing to register"
         for n in free:
             params[n].vary = n in reg      # the "before" layout: no prior rows of the robot parameters
@@ -128,7 +199,9 @@ def register_nominal(problem, options) -> Registered:
             params[n].vary = True
         params.set_values(start)
         problem.warm_starts = warm
-    return Registered(reg, values, before, message)
+        problem.blocks = problem.layout()
+    return Registered(reg, values, before, message, sol is not None and sol.success,
+                      last.get("wide") if at_solution else None)
 
 
 def apply_default_prior(problem, registered: Registered, scales, rtol: float,
@@ -150,17 +223,20 @@ def apply_default_prior(problem, registered: Registered, scales, rtol: float,
             params[n].prior_sigma, params[n].prior_mean = strength * scales.scale[n], params[n].value
         return DefaultPrior("auto", True, float(strength), None, names, [],
                             reason="strength given (chosen by held-out error)", method="given strength")
-    start = params.values()
-    warm = copy.deepcopy(problem.warm_starts)
-    try:
-        x = params.free_values()
-        for k, n in enumerate(free):
-            x[k] = registered.values.get(n, x[k])
-        params.set_free_values(x)               # followers of the registration frames move with them
-        ev = evaluator(problem, chunk_terms)[0]()
-    finally:
-        params.set_values(start)
-        problem.warm_starts = warm
+    if registered.evaluation is not None:       # the registration's last pass, with every column
+        ev = registered.evaluation
+    else:
+        start = params.values()
+        warm = copy.deepcopy(problem.warm_starts)
+        try:
+            x = params.free_values()
+            for k, n in enumerate(free):
+                x[k] = registered.values.get(n, x[k])
+            params.set_free_values(x)               # followers of the registration frames move with them
+            ev = evaluator(problem, chunk_terms)[0]()
+        finally:
+            params.set_values(start)
+            problem.warm_starts = warm
     rows = data_rows(problem, len(ev.r))
     # the data rows enter only through inner products of [J r]'s columns: its triangle T (T^T T = [J r]^T [J r])
     # serves the selection and the evidence in place of the m rows, from one factorisation

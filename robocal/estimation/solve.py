@@ -114,15 +114,19 @@ def levenberg_marquardt(fun: Callable, x0: np.ndarray, lower=None, upper=None, l
         if n == 0 or gnorm <= gtol * max(1.0, np.sqrt(2 * cost)):
             status, message = 1, "gradient below gtol"
             break
+        # 1/2 |Q^T r|^2 is the reduction the Gauss-Newton step predicts, the most the linear model can gain
+        # (rank deficiency and bounds only lower it). Once the model has predicted the last step well, a
+        # prediction below ftol x cost means the step cannot pass the ftol test below: stop without
+        # evaluating it (it would move the parameters by a fraction of a standard error of order sqrt(ftol))
+        if good_model and 0.5 * float(qtr @ qtr) <= ftol * cost:
+            status, message = 2, "cost reduction below ftol"
+            break
         # After a step the model predicted well, try the undamped (Gauss-Newton) step first: on a
         # well-modelled but ill-conditioned problem the damping would otherwise hold back the weak
         # directions for many iterations while it decays.
         undamped = good_model
         while True:
-            damping = 0.0 if undamped else lam
-            A = np.vstack([R, np.sqrt(damping) * np.diag(D)])
-            b = -np.concatenate([qtr, np.zeros(n)])
-            dx = np.linalg.lstsq(A, b, rcond=None)[0]
+            dx = lm_step(R, qtr, D, 0.0 if undamped else lam)
             x_new = np.clip(x + dx, lower, upper)
             dx = x_new - x
             try:
@@ -176,6 +180,34 @@ def levenberg_marquardt(fun: Callable, x0: np.ndarray, lower=None, upper=None, l
     return result(status, message, it)
 
 
+STEP_RCOND = 1e-10   # R's estimated reciprocal condition above which its triangle solves the undamped step
+
+
+def lm_step(R: np.ndarray, qtr: np.ndarray, D: np.ndarray, damping: float) -> np.ndarray:
+    """The least-squares solution dx of [R; sqrt(damping) D] dx = [-qtr; 0] (D: diagonal scales, > 0).
+
+    Damped: one QR of the (2n, n+1) augmented system (LAPACK geqrf) and a triangular solve. Undamped: the
+    triangular solve with R itself when it is well-conditioned (LAPACK trcon's estimate), else the
+    minimum-norm solution (lstsq). The same solution as lstsq of the stacked system, to rounding, at a
+    fraction of its cost on the small triangles of a fit (~10-25 against ~85 us at 31 columns)."""
+    n = len(qtr)
+    if n == 0:
+        return np.zeros(0)
+    if damping == 0.0:
+        rcond, info = scipy.linalg.lapack.dtrcon(R, norm="1", uplo="U", diag="N")
+        if info == 0 and rcond > STEP_RCOND:
+            return scipy.linalg.lapack.dtrtrs(R, -qtr)[0]
+        return np.linalg.lstsq(R, -qtr, rcond=None)[0]
+    A = np.zeros((2 * n, n + 1), order="F")
+    A[:n, :n] = R
+    A[:n, n] = -qtr
+    A[np.arange(n, 2 * n), np.arange(n)] = np.sqrt(damping) * D
+    qr, _tau, _work, info = scipy.linalg.lapack.dgeqrf(A, overwrite_a=True)
+    if info != 0:
+        raise ValueError(f"LAPACK dgeqrf failed (info {info})")
+    return scipy.linalg.lapack.dtrtrs(qr[:n, :n], qr[:n, n])[0]
+
+
 QR_ROWS = 2000   # rows per block of `triangle`: a block's QR stays in cache (measured ~1.6x faster at 60000 rows)
 
 
@@ -210,21 +242,40 @@ def triangle(J, r: np.ndarray, w: np.ndarray | None, n: int, rows: np.ndarray | 
     return stacked[:k] if len(blocks) <= 1 else r_factor(stacked, overwrite=True)
 
 
-QR_PANEL = 8     # dgeqrt's block size: measured ~1.7x faster than dgeqrf on 2000 x 38..55 blocks
+QR_PANEL = 8         # geqrt's block size, for blocks wider than UNBLOCKED_QR
+UNBLOCKED_QR = 80    # columns up to which plain Householder QR (geqrf, which LAPACK runs unblocked below 128
+                     # columns) is faster on a fit's blocks than compact-WY geqrt: measured on 2000-row blocks
+                     # 20 against 25 ms at 55 columns, 7 against 12 at 31, 1.5 against 3.9 at 13; slower from
+                     # ~100 columns (docs/speed.md)
 
 
 def r_factor(A: np.ndarray, overwrite: bool = False) -> np.ndarray:
     """(k, k) upper-triangular R with R^T R = A^T A for an (m, k) array (rows of zeros below when m < k).
-    LAPACK geqrt (compact-WY QR with small panels) on a column-major copy of A, or on A itself when it is
-    column-major and `overwrite`: much faster than scipy.linalg.qr(mode='r'), which copies A and returns the
-    full (m, k) R, and than geqrf on the tall, narrow blocks a fit factors."""
+    LAPACK geqrf (narrow A) or geqrt (compact-WY QR with small panels) on a column-major copy of A, or on A
+    itself when it is column-major and `overwrite`: much faster than scipy.linalg.qr(mode='r'), which copies A
+    and returns the full (m, k) R."""
     m, k = A.shape
     R = np.zeros((0, k))
     if m and k:
-        qr, _t, info = scipy.linalg.lapack.dgeqrt(max(1, min(QR_PANEL, m, k)),
-                                                  np.array(A, order="F", copy=None if overwrite else True),
-                                                  overwrite_a=True)
+        work = np.array(A, order="F", copy=None if overwrite else True)
+        if k <= UNBLOCKED_QR:
+            qr, _tau, _work, info = scipy.linalg.lapack.dgeqrf(work, overwrite_a=True)
+        else:
+            qr, _t, info = scipy.linalg.lapack.dgeqrt(max(1, min(QR_PANEL, m, k)), work, overwrite_a=True)
         if info != 0:
-            raise ValueError(f"LAPACK dgeqrt failed (info {info})")
-        R = np.triu(qr[:k])
+            raise ValueError(f"LAPACK QR failed (info {info})")
+        R = qr[:k].copy()
+        R[_below_diagonal(R.shape)] = 0.0      # np.triu's result, without its mask built at every call
     return np.vstack([R, np.zeros((k - len(R), k))]) if len(R) < k else R
+
+
+_MASKS: dict = {}
+
+
+def _below_diagonal(shape: tuple[int, int]) -> np.ndarray:
+    mask = _MASKS.get(shape)
+    if mask is None:
+        if len(_MASKS) > 64:       # a handful of shapes a fit; bounded in a long-running process
+            _MASKS.clear()
+        mask = _MASKS[shape] = np.tril(np.ones(shape, dtype=bool), -1)
+    return mask

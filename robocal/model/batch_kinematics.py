@@ -77,13 +77,11 @@ class SampleConstants:
         self.values = values.copy()
         self.configurations = robot_configuration_map(robot, joint_names)
         self.tau = None
+        model = robot.model
+        data = model.createData()      # one workspace for these and for the batched passes (same structure)
         if needs_gravity:
-            model = robot.model
-            data = model.createData()
             self.tau = np.array([pin.computeGeneralizedGravity(model, data, q)[v_index]
                                  for q in self.configurations(values)])
-        model = robot.model
-        data = model.createData()
         pin.computeJointJacobians(model, data, pin.neutral(model))
         self.subspace = np.zeros((model.nv, 6))      # row v: S of the joint owning velocity v (LOCAL)
         for jid in range(1, model.njoints):
@@ -94,7 +92,7 @@ class SampleConstants:
         self.regressors: dict = {}                  # joint id -> (samples, q, joint_key, regressors) of the last pass
         self.offset_map = None          # (P_offset, its twist-map rows, any non-zero) of the last layout
         self.gemm_plans: dict = {}      # joint id -> (layout, its regressor's columns that can be non-zero, GemmBlocks)
-        self.data = None                            # Pinocchio workspace of the batched passes
+        self.data = data                # Pinocchio workspace of the batched passes (any model of this structure)
 
     def matches(self, values: np.ndarray) -> bool:
         return self.values.shape == values.shape and np.array_equal(self.values, values)
@@ -155,8 +153,32 @@ class BatchKinematics:
             fk(model, data, qi)
             out[row] = regressor(model, data, jid, LOCAL)
         if out.nbytes <= CACHE_BYTES:
-            self.constants.regressors[jid] = (samples.copy(), q, self.ms.joint_key, out)
+            self.constants.regressors[jid] = (samples.copy(), q, self.ms.joint_key, out, {})
         return out
+
+    def derived(self, jid: int, reg: np.ndarray) -> dict:
+        """What is worked out from joint jid's regressors `reg` (its poses, their supporting columns, ...), kept
+        with them: a pass that reuses the regressors reuses these (a fresh dict when they are not kept)."""
+        hit = self.constants.regressors.get(jid)
+        return hit[4] if hit is not None and hit[3] is reg else {}
+
+    def joint_poses(self, jid: int, reg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(R (n, 3, 3), p (n, 3)): joint jid's poses on the robot from its regressors `reg`, kept with them (the
+        same key decides both: a pass that reuses the regressors reuses the poses)."""
+        kept = self.derived(jid, reg)
+        if "poses" in kept:
+            return kept["poses"]
+        model = self.model
+        j0 = model.supports[jid][1]
+        block = reg[:, :, 6 * (j0 - 1):6 * j0]     # Ad(X_j0), X_j0 = oMi^-1 jointPlacement(j0)
+        RX, B = block[:, 3:, 3:], block[:, :3, 3:]         # B = [pX]x RX: pX's entries from three rows
+        pX = np.stack([np.einsum("nk,nk->n", B[:, 2], RX[:, 1]), np.einsum("nk,nk->n", B[:, 0], RX[:, 2]),
+                       np.einsum("nk,nk->n", B[:, 1], RX[:, 0])], axis=-1)
+        root = model.jointPlacements[j0]
+        Ri = root.rotation @ transpose(RX)
+        pi = root.translation - np.einsum("nij,nj->ni", Ri, pX)
+        kept["poses"] = Ri, pi
+        return Ri, pi
 
     def twist_map(self, ms) -> np.ndarray:
         """(6 n_joints, n_free): d(placement twists)/d(free parameters), with each offset column written as
@@ -186,14 +208,7 @@ class BatchKinematics:
             Ri, pi = np.broadcast_to(np.eye(3), (n, 3, 3)), np.zeros((n, 3))
         else:
             reg = self.regressors(parent, unique)
-            j0 = model.supports[parent][1]
-            block = reg[:, :, 6 * (j0 - 1):6 * j0]     # Ad(X_j0), X_j0 = oMi^-1 jointPlacement(j0)
-            RX, B = block[:, 3:, 3:], block[:, :3, 3:]         # B = [pX]x RX: pX's entries from three rows
-            pX = np.stack([np.einsum("nk,nk->n", B[:, 2], RX[:, 1]), np.einsum("nk,nk->n", B[:, 0], RX[:, 2]),
-                           np.einsum("nk,nk->n", B[:, 1], RX[:, 0])], axis=-1)
-            root = model.jointPlacements[j0]
-            Ri = root.rotation @ transpose(RX)
-            pi = root.translation - np.einsum("nij,nj->ni", Ri, pX)
+            Ri, pi = self.joint_poses(parent, reg)
         # a stack times one matrix as one (3n x 3) GEMM: several times faster than matmul's broadcasting
         Ri = np.ascontiguousarray(Ri)
         R0 = (Ri.reshape(-1, 3) @ placement.rotation).reshape(Ri.shape)
@@ -223,6 +238,7 @@ class BatchKinematics:
             # joints that support the frame have non-zero regressor columns (a branched tree: the others are
             # skipped, same product)
             parent = model.frames[fid].parentJoint
+            kept = self.derived(parent, reg)
             plan = self.constants.gemm_plans.get(parent)
             if plan is None or plan[0] is not ms.layout:
                 plan = self.constants.gemm_plans[parent] = (ms.layout, supporting_columns(model, parent),
@@ -231,7 +247,9 @@ class BatchKinematics:
             if len(support) == 6 * nj:
                 parts.regressors, parts.tmap = reg, tmap
             else:
-                parts.regressors, parts.tmap = reg[:, :, support], tmap[support]
+                if "support" not in kept:
+                    kept["support"] = reg[:, :, support]
+                parts.regressors, parts.tmap = kept["support"], tmap[support]
         if ms.compliance_cols or ms.backlash_cols:
             Jq = np.einsum("nijk,jk->nij", reg.reshape(n, 6, nj, 6), self.constants.subspace)   # (n, 6, nv)
             tau = self.constants.tau
@@ -244,7 +262,11 @@ class BatchKinematics:
             parts.add(cols, (model.frames[fid].placement.toActionMatrix() @ ms.P_frame[fid])[:, cols])
         if ms.has_base_params:                 # the base's own columns only
             cols = ms.layout.base_columns
-            parts.add(cols, adjoint_inverse(Ri, pi) @ ms.P_base[:, cols])
+            P = ms.P_base[:, cols]         # a stack times one matrix as one GEMM
+            kept = self.derived(model.frames[fid].parentJoint, reg) if model.frames[fid].parentJoint else {}
+            if "base" not in kept:
+                kept["base"] = adjoint_inverse(Ri, pi).reshape(-1, 6)
+            parts.add(cols, (kept["base"] @ P).reshape(n, 6, P.shape[1]))
         return parts
 
 

@@ -49,8 +49,12 @@ class JointJacobianParts:
                 np.matmul(folded, self.tmap, out=flat)
             else:
                 self.blocks.multiply(folded, self.tmap, flat)
+        flat_M = M.reshape(n * d, 6)
         for cols, block in self.terms:
-            out[:, :, cols] += M @ block
+            if block.ndim == 2:      # the same at every sample: one GEMM, not n small products
+                out[:, :, cols] += (flat_M @ block).reshape(n, d, -1)
+            else:
+                out[:, :, cols] += M @ block
         return out
 
     def dense(self) -> np.ndarray:

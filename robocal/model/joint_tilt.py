@@ -53,7 +53,7 @@ class JointTilts:
     def apply(self, model, moments: dict[int, np.ndarray]) -> None:
         """Set the tilted joints' placements of `model` (the sampling copy) for one sample's moments."""
         for jid, t, _ in self.entries:
-            model.jointPlacements[jid] = self.placements[jid] * pin.exp6(pin.Motion(_twist(-t * moments[jid])))
+            model.jointPlacements[jid] = self.placements[jid] * pin.exp6(_twist(-t * moments[jid]))
 
     def jacobian(self, regressor: np.ndarray, P_joint: np.ndarray, moments: dict[int, np.ndarray]) -> np.ndarray:
         """(6, n_free) LOCAL frame twist per free parameter, from the frame's kinematic regressor (placements
@@ -64,9 +64,9 @@ class JointTilts:
             tilt = _twist(-t * moments[jid])
             R = regressor[:, rows]
             # placement errors act before the tilt: their local twist is carried through exp(-tilt)
-            back = pin.exp6(pin.Motion(-tilt)).toActionMatrix()
+            back = pin.exp6(-tilt).toActionMatrix()
             J += R @ (back - np.eye(6)) @ P_joint[rows]
-            d_tilt = pin.Jexp6(pin.Motion(tilt)) @ _twist(-moments[jid])
+            d_tilt = pin.Jexp6(tilt) @ _twist(-moments[jid])
             for c, w in cols:
                 J[:, c] += w * (R @ d_tilt)
         return J

@@ -19,10 +19,6 @@ from robocal.model.state_layout import state_layout
 LOCAL = pin.ReferenceFrame.LOCAL
 
 
-def _exp6(v: np.ndarray) -> pin.SE3:
-    return pin.exp6(pin.Motion(np.asarray(v, dtype=float)))
-
-
 def joint_key(robot, layout, deltas: np.ndarray) -> tuple:
     """What the calibrated model's joint placements depend on, whatever the parameter structure: the robot and,
     for each group that moves a joint and is away from zero (exp6(0) is exactly the identity), its id, kind and
@@ -42,10 +38,14 @@ class ModelState:
         layout = state_layout(robot, params, self.joint_names)    # the structure, worked out once
         self.layout = layout
         nominal = robot.model
-        self.model = nominal.copy()
         self._data = None
         self.n_free = layout.n_free
         values = layout.values(params)
+        deltas = np.append(values, 0.0)[layout.group_value_index]     # (groups, 6); a missing component: 0
+        # exp6(0) is exactly the identity: with no frame group and every joint placement at nominal (a fit's
+        # start, a registration) the calibrated model is the nominal one, shared (nothing below writes to it)
+        moved = layout.has_frame_groups or bool(np.any(deltas[layout.joint_placement_rows]))
+        self.model = nominal.copy() if moved else nominal
         n_read = len(self.joint_names)
         nj = nominal.njoints - 1
         # Maps from "twist of a placement" / "joint velocity" to the free-parameter vector.
@@ -63,36 +63,39 @@ class ModelState:
         tilts = [(jid, values[slot], cols) for jid, slot, cols in layout.tilts]
         induced = []   # joints that hang below a calibrated frame: (joint id, moved frame, its block)
         frame_blocks = []
-        deltas = np.append(values, 0.0)[layout.group_value_index]     # (groups, 6); a missing component: 0
         self._deltas, self._joint_key = deltas, None
         for group, delta in zip(layout.groups, deltas):    # frames first, parents before children (state_layout)
             kind = group.kind
-            block = pin.Jexp6(pin.Motion(delta)) @ group.selector
+            if kind == "joint_placement" and not moved:     # Jexp6(0) is exactly the identity too
+                self.P_joint[6 * (group.index - 1):6 * group.index] += group.selector
+                continue
+            twist = delta             # exp6 and Jexp6 take the 6-vector itself (no Motion: ten times faster)
+            block = pin.Jexp6(twist) @ group.selector
             if kind == "joint_placement":
                 jid = group.index
-                self.model.jointPlacements[jid] = self.model.jointPlacements[jid] * _exp6(delta)
+                self.model.jointPlacements[jid] = self.model.jointPlacements[jid] * pin.exp6(twist)
                 self.P_joint[6 * (jid - 1):6 * jid] += block
             elif kind == "frame_placement":
                 fid = group.index
-                moved = self.model.frames[fid].placement * _exp6(delta)
+                frame_moved = self.model.frames[fid].placement * pin.exp6(twist)
                 moved_with = robot.frames_moved_with(fid)
                 for gid, rel in moved_with:
-                    self.model.frames[gid].placement = moved * rel
+                    self.model.frames[gid].placement = frame_moved * rel
                 frame_blocks.append((fid, block, [gid for gid, _ in moved_with]))
                 for jid, rel in robot.joints_moved_with(fid):
-                    self.model.jointPlacements[jid] = moved * rel
-                    induced.append((jid, moved, block))
+                    self.model.jointPlacements[jid] = frame_moved * rel
+                    induced.append((jid, frame_moved, block))
             else:
-                self.base = robot_base * _exp6(delta)
+                self.base = robot_base * pin.exp6(twist)
                 self.P_base = block
         for fid, block, moved_with in frame_blocks:   # every placement final: frames below carry the twist
             final = self.model.frames[fid].placement
             for gid in moved_with:
                 rel = self.model.frames[gid].placement.inverse() * final
                 self.P_frame[gid] = self.P_frame.get(gid, 0.0) + rel.toActionMatrix() @ block
-        for jid, moved, block in induced:
+        for jid, frame_moved, block in induced:
             final = self.model.jointPlacements[jid]
-            self.P_joint[6 * (jid - 1):6 * jid] += (final.inverse() * moved).toActionMatrix() @ block
+            self.P_joint[6 * (jid - 1):6 * jid] += (final.inverse() * frame_moved).toActionMatrix() @ block
         self._owner: SampleState | None = None
         self.has_joint_params, self.has_base_params = layout.has_joint_params, layout.has_base_params
         self._qmap = layout.qmap

@@ -123,6 +123,9 @@ class StateLayout:
         self.base_columns = next((g.columns for g in self.groups if g.kind == "base"), slice(0, 0))
         self.has_base_params = len(np.arange(self.n_free)[self.base_columns]) > 0
         self.joint_group_rows = np.array(joint_rows, dtype=int)     # ModelState.joint_key
+        self.joint_placement_rows = np.array([i for i, g in enumerate(self.groups) if g.kind == "joint_placement"],
+                                             dtype=int)
+        self.has_frame_groups = any(g.kind == "frame_placement" for g in self.groups)
         self.joint_group_ids = np.array([[self.groups[i].index, self.groups[i].kind == "frame_placement"]
                                          for i in joint_rows], dtype=float).reshape(-1, 2)
 
