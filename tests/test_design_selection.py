@@ -148,3 +148,15 @@ def test_closed_chain_stewart_platform_plans_with_the_same_calls():
     random_sets = [predict_pose_accuracy(predict_parameters(design, rng.choice(n, 20, replace=False)), G)
                    .mean_position for _ in range(30)]
     assert d_opt < np.median(random_sets)
+
+
+@pytest.mark.parametrize("criterion", ["D", "E"])
+def test_one_greedy_order_serves_every_count(ur5, criterion):
+    """select_poses from a prefix of one greedy run is select_poses itself (the accuracy curve's shortcut)."""
+    from robocal.design.selection import greedy_order
+    _, design, _ = ur5
+    order = greedy_order(design, 40, criterion)
+    for n in (12, 30, 40):
+        plain, shared = select_poses(design, n, criterion), select_poses(design, n, criterion, start=order[:n])
+        assert plain.chosen.tolist() == shared.chosen.tolist() and plain.greedy_value == shared.greedy_value
+        assert plain.value == shared.value
