@@ -74,7 +74,7 @@ def batch_size(unit_seconds: float | None, left: int, workers: int, overhead_sec
     if not unit_seconds or unit_seconds <= 0:
         return 1
     wanted = int(np.ceil(overhead_seconds * (1 - share) / (share * unit_seconds)))
-    by_time = max(1, int(max_task_seconds // unit_seconds))
+    by_time = max(1, int(max_task_seconds / unit_seconds + 1e-9))
     by_balance = max(1, left // (TASKS_PER_WORKER * max(workers, 1)))
     return max(1, min(wanted, by_time, by_balance))
 
