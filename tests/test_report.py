@@ -87,3 +87,31 @@ def test_scene_page_is_deterministic():
     from robocal.viz.meshcat_check import SceneView
     pages = [SceneView(all_types_scene(), meshes=False).static_html() for _ in range(2)]
     assert pages[0] == pages[1]
+
+
+def test_evaluate_replaces_only_the_evaluation_sections(tmp_path):
+    """`robocal evaluate` rewrites the evaluation sections of report.html and keeps the rest as the fit wrote
+    it (plots, scene: no second rendering); the same session evaluated again replaces its section."""
+    from robocal.viz.report import EVALUATIONS, report_with_new_evaluations
+
+    folder = tmp_path / "result"
+    shutil.copytree(demo_result_dir(), folder)
+    write_report(folder, meshes=False)
+    before = (folder / "report.html").read_text()
+    assert before.count(EVALUATIONS[0]) == 1 and "Evaluation on another session" not in before
+
+    def evaluation(rms):
+        return {"data": "/data/other.csv", "refitted": [], "blocks": [
+            {"name": "tracker", "unit": "mm", "all": {"n": 5, "rms_norm": rms, "max_norm": 2 * rms}}]}
+    page = report_with_new_evaluations(folder, [evaluation(0.123)]).decode()
+    head, tail = before.split(EVALUATIONS[0])[0], before.split(EVALUATIONS[1])[1]
+    assert page.startswith(head) and page.endswith(tail)
+    assert page.count("Evaluation on another session") == 1 and "0.123 mm" in page
+    (folder / "evaluation_other.json").write_text(json.dumps(evaluation(0.123)))
+    (folder / "report.html").write_text(page)
+    again = report_with_new_evaluations(folder, [evaluation(0.456)]).decode()
+    assert again.count("Evaluation on another session") == 1 and "0.456 mm" in again and "0.123 mm" not in again
+    # a report written before the markers existed is made anew, with the evaluation
+    (folder / "report.html").write_text(before.replace(EVALUATIONS[0], "").replace(EVALUATIONS[1], ""))
+    fresh = report_with_new_evaluations(folder, [evaluation(0.456)]).decode()
+    assert fresh.count(EVALUATIONS[0]) == 1 and "0.456 mm" in fresh and '<iframe class="scene"' in fresh

@@ -25,6 +25,8 @@ from robocal.viz.scene import read_scene, samples_phrase
 
 log = logging.getLogger(__name__)
 SHOWN = {"m": (1e3, "mm"), "rad": (1e3, "mrad")}
+#: where the evaluation sections sit in report.html (robocal evaluate replaces what lies between)
+EVALUATIONS = ("<!--robocal:evaluations-->", "<!--/robocal:evaluations-->")
 
 
 def png_base64(fn, *args, **kwargs) -> str:
@@ -147,8 +149,7 @@ def report_html(result: dict, scene: dict | None = None, meshes: bool = True, ti
                         "parameters")]
     if iso9283:
         parts += iso9283_section(iso9283)
-    for evaluation in result.get("evaluations") or []:      # robocal evaluate's files in the folder
-        parts += evaluation_section(evaluation)
+    parts.append(evaluations_html(result.get("evaluations") or []))     # robocal evaluate's files in the folder
     figures = report_plots(result, scene)
     if figures:
         parts.append("<h2>Plots</h2>")
@@ -217,6 +218,19 @@ def read_result(folder: str | Path) -> dict:
         raise InputError(f"not valid JSON: {exc.msg}", source=str(path), row=exc.lineno) from exc
 
 
+def evaluations_html(evaluations: list[dict]) -> str:
+    """The evaluation sections between markers, so that `report_with_new_evaluations` can replace them."""
+    return EVALUATIONS[0] + "".join(part for e in evaluations for part in evaluation_section(e)) + EVALUATIONS[1]
+
+
+def folder_evaluations(folder: Path, new: list[dict] | None = None) -> list[dict]:
+    """The folder's evaluation_*.json, each replaced by the `new` one of the same session and refit choice."""
+    found = {p.name: json.loads(p.read_text(encoding="utf-8")) for p in sorted(folder.glob("evaluation_*.json"))}
+    def key(e):        # one evaluation per session and refit choice
+        return e.get("data"), bool(e.get("refitted"))
+    return [e for e in found.values() if all(key(e) != key(n) for n in new or [])] + list(new or [])
+
+
 def report_with_evaluations(folder: str | Path, new: list[dict] | None = None, meshes: bool = True) -> bytes:
     """report.html content of an output folder, with its evaluation_*.json files and `new` evaluations."""
     folder = Path(folder)
@@ -226,12 +240,22 @@ def report_with_evaluations(folder: str | Path, new: list[dict] | None = None, m
         log.warning("%s has no scene.json: the report has no 3D scene and no per-sample plots", folder)
     iso_path = folder / "iso9283.json"
     iso = json.loads(iso_path.read_text(encoding="utf-8")) if iso_path.is_file() else None
-    found = {p.name: json.loads(p.read_text(encoding="utf-8")) for p in sorted(folder.glob("evaluation_*.json"))}
-    def key(e):        # one evaluation per session and refit choice
-        return e.get("data"), bool(e.get("refitted"))
-    evaluations = [e for e in found.values() if all(key(e) != key(n) for n in new or [])]
-    result["evaluations"] = evaluations + list(new or [])
+    result["evaluations"] = folder_evaluations(folder, new)
     return report_bytes(result, scene, meshes=meshes, iso9283=iso)
+
+
+def report_with_new_evaluations(folder: str | Path, new: list[dict]) -> bytes:
+    """The folder's report.html with its evaluation sections brought up to date (`robocal evaluate`): the rest
+    of the page (tables, plots, 3D scene) is what the fit wrote, so only the evaluation sections are made
+    anew; a report without the markers (written before them) is made anew whole, as `robocal calibrate` does
+    (simple shapes in the scene)."""
+    folder = Path(folder)
+    page = (folder / "report.html").read_text(encoding="utf-8")
+    start, end = page.find(EVALUATIONS[0]), page.find(EVALUATIONS[1])
+    if start < 0 or end < start or page.count(EVALUATIONS[0]) != 1:
+        return report_with_evaluations(folder, new, meshes=False)
+    sections = evaluations_html(folder_evaluations(folder, new))
+    return (page[:start] + sections + page[end + len(EVALUATIONS[1]):]).encode("utf-8")
 
 
 def write_report(folder: str | Path, out: str | Path | None = None, meshes: bool = True) -> Path:
