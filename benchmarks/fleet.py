@@ -14,6 +14,7 @@ end: 400 empty tasks, one at a time per task, on the started cluster. Paste the 
 """
 import argparse
 import os
+import resource
 import statistics
 import tempfile
 import time
@@ -22,6 +23,7 @@ from pathlib import Path
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
+import psutil  # noqa: E402  (a dependency of dask.distributed)
 import yaml  # noqa: E402
 
 from robocal.estimation import parallel_map  # noqa: E402
@@ -50,6 +52,24 @@ def nothing(x):
     return x
 
 
+def cpu_seconds() -> float:
+    """CPU time (user + system) of this process and all its children, live or ended: a way's difference of
+    it is the CPU that all its processes used (workers, nannies, scheduler, client, pool), whatever the load
+    of other jobs on the machine did to its wall time."""
+    me = psutil.Process()
+    t = me.cpu_times()
+    total = t.user + t.system
+    ended = resource.getrusage(resource.RUSAGE_CHILDREN)
+    total += ended.ru_utime + ended.ru_stime
+    for child in me.children(recursive=True):
+        try:
+            c = child.cpu_times()
+            total += c.user + c.system
+        except psutil.NoSuchProcess:
+            pass
+    return total
+
+
 def pool_run(pool, jobs, workers: int) -> list[dict]:
     parts = [jobs[k::workers] for k in range(workers)]
     return [r for part in pool.map(calibrate_all, parts) for r in part]
@@ -74,8 +94,10 @@ def main():
         spec = load_fleet(fleet.fleet_yaml)
         os.environ.update(WORKER_ENV)          # the pool's processes as the cluster's workers
         with ctx.Pool(W) as pool, dask_client(workers=W) as client:
-            pool.map(calibrate_all, [spec.jobs[k:k + 1] for k in range(W)])    # imports, before any clock
-            client.run(lambda: __import__("robocal.workflows.fleet.unit"))
+            # imports and first calls (the example robot's URDF, caches), before any clock, in both
+            pool.map(calibrate_all, [spec.jobs[k:k + 1] for k in range(W)])
+            client.gather([client.submit(calibrate_all, spec.jobs[k:k + 1], workers=[w], pure=False)
+                           for k, w in enumerate(sorted(client.scheduler_info()["workers"]))])
             address = client.scheduler.address
 
             def dask_started(rep, batched=True):
@@ -105,29 +127,29 @@ def main():
             names = list(ways)
             for rep in range(args.repeats):
                 for name in names[rep % len(names):] + names[:rep % len(names)]:
-                    t0 = time.perf_counter()
+                    t0, c0 = time.perf_counter(), cpu_seconds()
                     rows = ways[name](rep)
-                    wall = time.perf_counter() - t0
+                    wall, cpu = time.perf_counter() - t0, cpu_seconds() - c0
                     times.setdefault(name, []).append((wall, sum(r["status"] == "converged" for r in rows),
-                                                       statistics.mean(r["elapsed_s"] for r in rows)))
+                                                       statistics.mean(r["elapsed_s"] for r in rows), cpu))
             # Dask's own cost per task: empty tasks, one at a time, on the same running cluster
             n_empty = 400
             t0 = time.perf_counter()
             client.gather([client.submit(nothing, k, pure=False) for k in range(n_empty)])
             overhead = (time.perf_counter() - t0) * W / n_empty
-    print(f"{'how':<48}{'units':>6}{'converged':>10}{'wall s':>8}{'ms / unit':>10}{'fit ms':>8}"
-          f"{'vs plain':>10}")
-    med = {k: (statistics.median(w for w, _, _ in v), v[0][1], statistics.median(f for _, _, f in v))
-           for k, v in times.items()}
+    print(f"{'how':<48}{'converged':>10}{'wall s':>8}{'fit ms':>8}{'vs plain':>10}{'CPU s':>8}{'vs plain':>10}")
+    med = {k: (statistics.median(w for w, _, _, _ in v), v[0][1], statistics.median(f for _, _, f, _ in v),
+               statistics.median(c for _, _, _, c in v)) for k, v in times.items()}
     for name in names:
-        wall, ok, fit = med[name]
-        ref = med[f"{W} plain processes ({'from cold' if 'cold' in name else 'started'})"][0]
-        print(f"{name:<48}{args.units:>6}{ok:>10}{wall:>8.2f}{1e3 * wall / args.units:>10.1f}{1e3 * fit:>8.1f}"
-              f"{100 * ref / wall:>9.0f}%")
+        wall, ok, fit, cpu = med[name]
+        ref = med[f"{W} plain processes ({'from cold' if 'cold' in name else 'started'})"]
+        print(f"{name:<48}{ok:>10}{wall:>8.2f}{1e3 * fit:>8.1f}{100 * ref[0] / wall:>9.0f}%{cpu:>8.2f}"
+              f"{100 * ref[3] / cpu:>9.0f}%")
     unit = med["one by one, this process"][2]
-    print(f"\nmedians of {args.repeats} runs of each way (ways in turn, order rotated between repeats); fit ms: one "
-          f"unit's calibrate_unit\nwhere it ran; vs plain: the plain processes' wall time over this way's (like for "
-          f"like: started or from cold)\nDask's cost per task (400 empty tasks on the started cluster): "
+    print(f"\n{args.units} units; medians of {args.repeats} runs of each way (ways in turn, order rotated between "
+          f"repeats); fit ms: one unit's\ncalibrate_unit where it ran; vs plain: the plain processes' wall (CPU) time "
+          f"over this way's, like for like (started\nor from cold); CPU s: all processes of the way (workers, "
+          f"nannies, scheduler, client, pool)\nDask's cost per task (400 empty tasks on the started cluster): "
           f"{1e3 * overhead:.1f} ms per task per worker;\nbatch_size for {1e3 * unit:.0f} ms units with that "
           f"overhead: {batch_size(unit, args.units, W, overhead)} (with the constant TASK_OVERHEAD_S = "
           f"{1e3 * parallel_map.TASK_OVERHEAD_S:.0f} ms: {batch_size(unit, args.units, W)})\n"

@@ -28,14 +28,22 @@ from robocal.errors import InputError
 #: times a finished task's lost result is awaited again (its worker died before the result was fetched)
 MAX_RESULT_WAITS = 3
 #: Dask's cost per task (scheduler, serialisation, the worker's bookkeeping) on a LocalCluster of this kind of
-#: machine, measured by benchmarks/fleet.py (docs/fleet.md, "Batches"): what `batch_size` weighs items against
-TASK_OVERHEAD_S = 0.010
+#: machine: 3.2-4.6 ms a task per worker measured by benchmarks/fleet.py (empty tasks; docs/fleet.md, "Batches"),
+#: what `batch_size` weighs items against
+TASK_OVERHEAD_S = 0.004
 #: the share of a task that the per-task cost may take
 OVERHEAD_SHARE = 0.05
 #: a task lasts at most this long (s) once item times are known (results flow about as often as a table is written)
 MAX_TASK_S = 1.0
 #: tasks in flight per worker (one running, one waiting), and at least this many tasks per worker for what is left
 TASKS_PER_WORKER = 2
+#: Dask settings of the LocalCluster robocal starts. Its workers share the machine's cores with the scheduler and
+#: the nannies, so whatever runs beside the tasks slows them: the statistical profiler samples each task thread
+#: 100 times a second (for the dashboard's profile page), every process wakes 50 times a second to check its
+#: event loop, and work stealing rebalances queues that `completed` keeps at two tasks per worker anyway. Off or
+#: slower, 200 units of 30 ms on 2 workers reach 92-95 % of 2 plain processes instead of 86 % (docs/fleet.md).
+LOCAL_CONFIG = {"distributed.worker.profile.enabled": False, "distributed.admin.tick.interval": "100ms",
+                "distributed.scheduler.work-stealing": False}
 #: set in every LocalCluster worker: one BLAS thread per single-threaded worker process
 WORKER_ENV = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
 
@@ -57,10 +65,14 @@ def dask_client(scheduler: str | None = None, workers: int | None = None):
         finally:
             client.close()
         return
+    import dask.config   # optional [fleet] extra
+
     n = workers or default_workers()
-    # dashboard on a free port (never a clash with another cluster); the cluster's own logs only from WARNING
-    with LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
-                      silence_logs=logging.WARNING, env=WORKER_ENV) as cluster, Client(cluster) as client:
+    # dashboard on a free port (never a clash with another cluster); the cluster's own logs only from WARNING;
+    # LOCAL_CONFIG: less background work beside the tasks (the workers inherit it through their nannies)
+    with dask.config.set(LOCAL_CONFIG), \
+            LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
+                         silence_logs=logging.WARNING, env=WORKER_ENV) as cluster, Client(cluster) as client:
         yield client
 
 
@@ -117,13 +129,18 @@ def completed(client, fn: Callable, items: list) -> Iterator[tuple[int, object, 
     waits: dict[str, int] = {}
     pending = as_completed()
 
-    def workers() -> int:
-        return max(1, len(client.scheduler_info().get("workers", {})))
+    known = [-np.inf, 1]        # (when, task slots): asked of the scheduler at most once a second (an RPC)
+
+    def slots() -> int:
+        if time.monotonic() - known[0] > 1.0:
+            known[:] = [time.monotonic(), max(1, sum(client.nthreads().values()))]
+        return known[1]
 
     def submit() -> None:
-        while queue and len(batch_of) < TASKS_PER_WORKER * workers():
-            unit = float(np.median(seconds)) if seconds else None
-            take = batch_size(unit, len(queue), workers())
+        n = slots()
+        unit = float(np.median(seconds)) if seconds else None
+        while queue and len(batch_of) < TASKS_PER_WORKER * n:
+            take = batch_size(unit, len(queue), n)
             idx, queue[:take] = queue[:take], []
             future = client.submit(task, [items[i] for i in idx], pure=False)
             batch_of[future.key], waits[future.key] = idx, 0
