@@ -137,18 +137,21 @@ def main():
             t0 = time.perf_counter()
             client.gather([client.submit(nothing, k, pure=False) for k in range(n_empty)])
             overhead = (time.perf_counter() - t0) * W / n_empty
-    print(f"{'how':<48}{'converged':>10}{'wall s':>8}{'fit ms':>8}{'vs plain':>10}{'CPU s':>8}{'vs plain':>10}")
+    print(f"{'how':<48}{'converged':>10}{'wall s':>8}{'fit ms':>8}{'CPU s':>8}{'vs plain: wall':>16}{'CPU':>6}")
     med = {k: (statistics.median(w for w, _, _, _ in v), v[0][1], statistics.median(f for _, _, f, _ in v),
                statistics.median(c for _, _, _, c in v)) for k, v in times.items()}
     for name in names:
         wall, ok, fit, cpu = med[name]
-        ref = med[f"{W} plain processes ({'from cold' if 'cold' in name else 'started'})"]
-        print(f"{name:<48}{ok:>10}{wall:>8.2f}{1e3 * fit:>8.1f}{100 * ref[0] / wall:>9.0f}%{cpu:>8.2f}"
-              f"{100 * ref[3] / cpu:>9.0f}%")
+        ref = times[f"{W} plain processes ({'from cold' if 'cold' in name else 'started'})"]
+        # the median over repeats of (plain / this way) within each repeat: slow drifts of the machine's load
+        # cancel in each ratio
+        r_wall = statistics.median(p[0] / t[0] for p, t in zip(ref, times[name]))
+        r_cpu = statistics.median(p[3] / t[3] for p, t in zip(ref, times[name]))
+        print(f"{name:<48}{ok:>10}{wall:>8.2f}{1e3 * fit:>8.1f}{cpu:>8.2f}{100 * r_wall:>15.0f}%{100 * r_cpu:>5.0f}%")
     unit = med["one by one, this process"][2]
     print(f"\n{args.units} units; medians of {args.repeats} runs of each way (ways in turn, order rotated between "
-          f"repeats); fit ms: one unit's\ncalibrate_unit where it ran; vs plain: the plain processes' wall (CPU) time "
-          f"over this way's, like for like (started\nor from cold); CPU s: all processes of the way (workers, "
+          f"repeats); fit ms: one unit's\ncalibrate_unit where it ran; vs plain: median over the repeats of the plain processes' wall (CPU) time "
+          f"over\nthis way's in the same repeat, like for like (started or from cold); CPU s: all processes of the way (workers, "
           f"nannies, scheduler, client, pool)\nDask's cost per task (400 empty tasks on the started cluster): "
           f"{1e3 * overhead:.1f} ms per task per worker;\nbatch_size for {1e3 * unit:.0f} ms units with that "
           f"overhead: {batch_size(unit, args.units, W, overhead)} (with the constant TASK_OVERHEAD_S = "
