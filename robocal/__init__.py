@@ -1,24 +1,39 @@
 """robocal: calibrate robot models (serial arms and parallel machines) described by URDF, MJCF or Pinocchio.
 
 The names users call; docs/api.md lists them with the subpackages they come from.
-"""
-from robocal.design.simulate import perturb, random_configurations, simulate_measurements
-from robocal.errors import InputError, RobocalError
-from robocal.estimation.calibrate import CalibrationOptions, calibrate
-from robocal.estimation.problem import Problem
-from robocal.estimation.result import CalibrationResult
-from robocal.workflows.evaluate import evaluate_result
-from robocal.workflows.setup import Setup, load_config
-from robocal.workflows.outputs import write_results
-from robocal.model.urdf_export import export_urdf
-from robocal.model.parameters import Parameter, ParameterSet, robot_parameters
-from robocal.model.mjcf import load_mjcf
-from robocal.model.pinocchio_robot import robot_from_pinocchio
-from robocal.model.robot import Robot, load_example, load_urdf
-from robocal.residuals import REGISTRY, Residual
 
-__all__ = ["Robot", "load_urdf", "load_example", "load_mjcf", "robot_from_pinocchio", "Parameter", "ParameterSet", "robot_parameters", "Setup",
-           "load_config", "Problem", "CalibrationOptions", "calibrate", "CalibrationResult", "evaluate_result",
-           "write_results", "export_urdf", "perturb", "random_configurations", "simulate_measurements", "Residual",
-           "REGISTRY", "RobocalError", "InputError"]
+Python runs this file before any module of robocal (`robocal.cli.main` for the `robocal` command,
+`robocal.io.tables` for a script that reads one table), so it imports nothing itself: each name below is
+imported from its module on first use (PEP 562), and `robocal --version` does not import the library.
+Subpackages import what they export (tests/test_architecture.py); only this root and robocal.viz defer.
+"""
+from importlib import import_module
+
+#: every public name and the module that defines it
+EXPORTS = {
+    "Robot": "robocal.model.robot", "load_urdf": "robocal.model.robot", "load_example": "robocal.model.robot",
+    "load_mjcf": "robocal.model.mjcf", "robot_from_pinocchio": "robocal.model.pinocchio_robot",
+    "Parameter": "robocal.model.parameters", "ParameterSet": "robocal.model.parameters",
+    "robot_parameters": "robocal.model.parameters", "Setup": "robocal.workflows.setup",
+    "load_config": "robocal.workflows.setup", "Problem": "robocal.estimation.problem",
+    "CalibrationOptions": "robocal.estimation.calibrate", "calibrate": "robocal.estimation.calibrate",
+    "CalibrationResult": "robocal.estimation.result", "evaluate_result": "robocal.workflows.evaluate",
+    "write_results": "robocal.workflows.outputs", "export_urdf": "robocal.model.urdf_export",
+    "perturb": "robocal.design.simulate", "random_configurations": "robocal.design.simulate",
+    "simulate_measurements": "robocal.design.simulate", "Residual": "robocal.residuals",
+    "REGISTRY": "robocal.residuals", "RobocalError": "robocal.errors", "InputError": "robocal.errors",
+}
+__all__ = list(EXPORTS)
 __version__ = "0.1.0"
+
+
+def __getattr__(name):
+    if name in EXPORTS:
+        value = getattr(import_module(EXPORTS[name]), name)
+        globals()[name] = value          # once found, an attribute like any other
+        return value
+    raise AttributeError(f"module 'robocal' has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(EXPORTS))

@@ -20,10 +20,13 @@ MAX_LINES = 400
 # imported inside functions on purpose: optional extras ([viz], [fast], [fleet], [test]) and the pages
 # built on them, so a core install imports without them; and heavy libraries of one CLI command
 OPTIONAL = ("numba", "meshcat", "matplotlib", "dask", "distributed", "pyarrow", "hypothesis", "cv2",
-            "robocal.viz.meshcat_check", "robocal.viz.report", "robocal.viz.plots", "robocal.viz.fleet_plots",
+            "robocal.viz.meshcat_check", "robocal.viz.report", "robocal.viz.camera_plots", "robocal.viz.plots", "robocal.viz.fleet_plots",
             "robocal.workflows.fleet",
             # the dynamics stack (scipy.signal, scipy.stats) only for `robocal identify`: CLI start-up
-            "robocal.workflows.identify_outputs", "robocal.workflows.identify", "robocal.workflows.identify_evaluate")
+            "robocal.workflows.identify_outputs", "robocal.workflows.identify", "robocal.workflows.identify_evaluate",
+            # scipy.optimize (0.1-0.15 s with scipy.sparse, special, fft, spatial): only the camera's initial pose
+            # (least_squares) and the laser/PSD set-up search use it, not the start-up of every command
+            "scipy.optimize")
 
 
 def modules() -> dict[str, Path]:
@@ -88,11 +91,25 @@ def test_imports_run_one_way_between_packages():
     assert not bad, "imports against the order " + " <- ".join(map(str, LAYERS)) + ":\n" + "\n".join(bad)
 
 
+#: the only __init__s that defer their names (PEP 562 __getattr__, from an explicit table): robocal.viz the
+#: names that need the optional [viz] extra; the root, which Python runs before any module of robocal (the
+#: `robocal` command's too), so that no command and no `import robocal.io.tables` imports the whole library
+DEFERRING = ("robocal", "robocal.viz")
+#: the only modules that import by name (importlib.import_module): those __init__s, and the command line,
+#: which imports the module of the command asked for (robocal/cli/main.py: start-up of every command)
+IMPORT_BY_NAME = DEFERRING + ("robocal.cli.main",)
+
+
 def test_subpackages_export_names_by_explicit_imports():
-    """No lazy-export helper: an __init__ imports what it exports; only robocal.viz defers the names that
-    need the optional [viz] extra (PEP 562 __getattr__)."""
-    bad = [str(path) for name, path in MODULES.items() if path.name == "__init__.py" and name != "robocal.viz"
+    """No lazy-export helper: an __init__ imports what it exports; only DEFERRING ones defer."""
+    bad = [str(path) for name, path in MODULES.items() if path.name == "__init__.py" and name not in DEFERRING
            and "__getattr__" in path.read_text(encoding="utf-8")]
+    assert not bad, bad
+
+
+def test_modules_are_imported_by_name_only_where_allowed():
+    bad = [str(path) for name, path in MODULES.items() if name not in IMPORT_BY_NAME
+           and any(s in path.read_text(encoding="utf-8") for s in ("import_module", "__import__("))]
     assert not bad, bad
 
 

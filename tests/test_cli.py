@@ -182,3 +182,30 @@ def test_quiet_calibrate_prints_the_status_and_the_error_table_only(tmp_path, ca
     assert "Calibration converged" in quiet.out and "RMS after" in quiet.out
     assert "Estimated parameters" not in quiet.out and "Estimated parameters" in loud.out
     assert quiet.err == "" and len(quiet.out.splitlines()) < 12
+
+
+def test_command_table_says_what_each_module_registers():
+    """robocal.cli.main lists the commands it does not import by COMMANDS: names, modules and help lines must
+    be what the modules themselves register (a command renamed or re-worded in its module fails here)."""
+    from robocal.cli.main import COMMANDS
+    sub = next(a for a in build_parser()._actions if a.choices)
+    assert {a.dest: a.help for a in sub._choices_actions} == {n: h for n, (_, h) in COMMANDS.items()}
+    for name, (module, _) in COMMANDS.items():
+        one = next(a for a in build_parser([name, "x"])._actions if a.choices).choices[name]
+        assert one._defaults.get("handler") or one._subparsers, name        # the module's parser, not a stub
+        assert sub.choices[name].prog == one.prog
+
+
+def test_version_imports_no_part_of_the_library():
+    """`robocal --version` imports robocal.io (the version) and nothing above it, nor Pinocchio or scipy."""
+    import subprocess
+    import sys
+    code = ("import sys\nfrom robocal.cli.main import main\ntry:\n    main(['--version'])\nexcept SystemExit:\n"
+            "    pass\nprint(sorted(m for m in sys.modules if m.startswith(('robocal.', 'pinocchio', 'scipy'))))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    loaded = eval(out.strip().splitlines()[-1])
+    assert "robocal.cli.main" in loaded
+    assert all(m.split(".")[1] in ("cli", "errors", "io") for m in loaded if m.startswith("robocal.")), loaded
+    assert not [m for m in loaded if m.startswith(("pinocchio", "scipy"))], loaded
+    assert loaded.count("robocal.cli.main") == 1 and not [m for m in loaded if m.startswith("robocal.cli.") and
+                                                           m != "robocal.cli.main"], loaded

@@ -167,3 +167,15 @@ def test_tall_blocks_select_as_their_full_rows_would(criterion):
     a, b = select_poses(design, 8, criterion), select_poses(full, 8, criterion)
     assert list(a.chosen) == list(b.chosen)
     assert a.value == pytest.approx(b.value, rel=1e-9)
+
+
+@pytest.mark.parametrize("criterion", ["D", "E"])
+def test_one_greedy_order_serves_every_count(ur5, criterion):
+    """select_poses from a prefix of one greedy run is select_poses itself (the accuracy curve's shortcut)."""
+    from robocal.design.selection import greedy_order
+    _, design, _ = ur5
+    order = greedy_order(design, 40, criterion)
+    for n in (12, 30, 40):
+        plain, shared = select_poses(design, n, criterion), select_poses(design, n, criterion, start=order[:n])
+        assert plain.chosen.tolist() == shared.chosen.tolist() and plain.greedy_value == shared.greedy_value
+        assert plain.value == shared.value

@@ -126,6 +126,25 @@ def test_killing_a_worker_during_a_run_loses_no_unit(cluster, fleet, monkeypatch
     shutil.rmtree(fleet.fleet_yaml.parent / "fleet-output-kill")
 
 
+def sleepy_square(x):
+    import time
+    time.sleep(0.02)
+    return x * x
+
+
+def test_items_travel_in_batches_and_come_back_once_each(cluster):
+    """40 items of 20 ms with a 10 ms per-task cost: fewer tasks than items, every result once, in order."""
+    from dask.distributed import get_task_stream
+    from robocal.estimation.parallel_map import completed, map_tasks
+    cl, client = cluster
+    with get_task_stream(client) as stream:
+        seen = sorted((i, r) for i, r, exc in completed(client, sleepy_square, list(range(40))) if exc is None)
+    assert seen == [(i, i * i) for i in range(40)]
+    tasks = [t for t in stream.data if "Batch" in str(t.get("key"))]
+    assert 4 < len(tasks) < 30, len(tasks)            # single items first, then batches of several
+    assert map_tasks(sleepy_square, range(10), scheduler=cl.scheduler_address) == [i * i for i in range(10)]
+
+
 def test_plan_curve_on_the_cluster_equals_the_serial_run(cluster, tmp_path):
     from robocal.workflows.plan import plan_from_config, prediction_dict
 

@@ -36,9 +36,9 @@ def test_report_of_the_demo_result_has_tables_plots_statements_and_scene(tmp_pat
         assert html.escape(statement) in page
     assert "Of 54 requested parameters, 30 are identifiable from the data alone" in page
     assert "<td>identifiable from the data alone</td><td>30 of 54 requested</td>" in page
-    images = re.findall(r'src="data:image/png;base64,([A-Za-z0-9+/=]+)"', page)
+    images = re.findall(r"<figure>(<svg .*?</svg>)<figcaption>", page)
     assert len(images) == 4          # residual per sample, histograms, parameters, singular values
-    assert all(base64.b64decode(i)[:4] == b"\x89PNG" and len(i) > 10_000 for i in images)
+    assert all(len(i) > 3000 and "<path d=" in i for i in images)
     assert '<iframe class="scene"' in page and "MeshCat.Viewer" in html.unescape(page)
     # every estimated parameter has a row, in mm / mrad
     n_est = sum(p["vary"] for p in result["parameters"])
@@ -53,7 +53,7 @@ def test_report_without_scene_still_has_tables(tmp_path):
     page = write_report(folder).read_text()
     assert (folder / "report.html").is_file()
     assert _tables(page) == ["summary", "residuals", "parameters"]
-    assert page.count('src="data:image/png') == 1 and "<iframe" not in page
+    assert page.count("<figure><svg") == 1 and "<iframe" not in page
 
 
 def test_report_bytes_from_objects_in_memory():
@@ -61,7 +61,7 @@ def test_report_bytes_from_objects_in_memory():
     from robocal.viz.scene import scene_bytes
     page = report_bytes(result, scene_bytes(problem, result, before), meshes=False).decode()
     # one residual plot per block (6) + histograms + parameters + singular values
-    assert page.count('src="data:image/png') == 9
+    assert page.count("<figure><svg") == 9
     for name in ("tracker", "table", "ball", "bore", "dbb", "laser"):
         assert f"<td>{name}</td>" in page
 
@@ -87,3 +87,31 @@ def test_scene_page_is_deterministic():
     from robocal.viz.meshcat_check import SceneView
     pages = [SceneView(all_types_scene(), meshes=False).static_html() for _ in range(2)]
     assert pages[0] == pages[1]
+
+
+def test_evaluate_replaces_only_the_evaluation_sections(tmp_path):
+    """`robocal evaluate` rewrites the evaluation sections of report.html and keeps the rest as the fit wrote
+    it (plots, scene: no second rendering); the same session evaluated again replaces its section."""
+    from robocal.viz.report import EVALUATIONS, report_with_new_evaluations
+
+    folder = tmp_path / "result"
+    shutil.copytree(demo_result_dir(), folder)
+    write_report(folder, meshes=False)
+    before = (folder / "report.html").read_text()
+    assert before.count(EVALUATIONS[0]) == 1 and "Evaluation on another session" not in before
+
+    def evaluation(rms):
+        return {"data": "/data/other.csv", "refitted": [], "blocks": [
+            {"name": "tracker", "unit": "mm", "all": {"n": 5, "rms_norm": rms, "max_norm": 2 * rms}}]}
+    page = report_with_new_evaluations(folder, [evaluation(0.123)]).decode()
+    head, tail = before.split(EVALUATIONS[0])[0], before.split(EVALUATIONS[1])[1]
+    assert page.startswith(head) and page.endswith(tail)
+    assert page.count("Evaluation on another session") == 1 and "0.123 mm" in page
+    (folder / "evaluation_other.json").write_text(json.dumps(evaluation(0.123)))
+    (folder / "report.html").write_text(page)
+    again = report_with_new_evaluations(folder, [evaluation(0.456)]).decode()
+    assert again.count("Evaluation on another session") == 1 and "0.456 mm" in again and "0.123 mm" not in again
+    # a report written before the markers existed is made anew, with the evaluation
+    (folder / "report.html").write_text(before.replace(EVALUATIONS[0], "").replace(EVALUATIONS[1], ""))
+    fresh = report_with_new_evaluations(folder, [evaluation(0.456)]).decode()
+    assert fresh.count(EVALUATIONS[0]) == 1 and "0.456 mm" in fresh and '<iframe class="scene"' in fresh

@@ -171,3 +171,13 @@ def test_pose_blocks_draw_triads_with_the_rotation_error_magnified():
     x = pos["measured"][3 * k, 1] - pos["measured"][3 * k, 0]
     expected = view.rotation_scale["after"] * np.linalg.norm(np.cross(r, x / np.linalg.norm(x)))
     assert view.rotation_scale["after"] > 1 and abs(angle - expected) < 0.05 * expected + 1e-4
+
+
+def test_pose_matrices_are_those_of_each_pose():
+    """The placements drawn (all samples and frames at once) are Pinocchio's, pose by pose."""
+    from robocal.viz.shapes import pose_matrices, se3_from_pose7
+    p7 = np.array(all_types_scene()["poses"]["after"])
+    T = pose_matrices(p7)
+    for i in range(0, len(p7), 7):
+        for f in range(p7.shape[1]):
+            np.testing.assert_allclose(T[i, f], se3_from_pose7(p7[i, f]).homogeneous, rtol=0, atol=1e-14)

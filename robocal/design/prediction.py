@@ -146,11 +146,12 @@ class CurvePoint:
 
 
 def accuracy_curve(design: DesignMatrix, counts, G: np.ndarray, criterion: str = "D", noise_scale: float = 1.0,
-                   W: np.ndarray | None = None) -> list[CurvePoint]:
-    """Predicted accuracy against the number of poses: a fresh selection for each count in `counts`."""
+                   W: np.ndarray | None = None, greedy: np.ndarray | None = None) -> list[CurvePoint]:
+    """Predicted accuracy against the number of poses: a fresh selection for each count in `counts`.
+    greedy: `greedy_order(design, max(counts), criterion, W)` when already computed (the same selections)."""
     out = []
     for n in counts:
-        sel = select_poses(design, int(n), criterion, W=W)
+        sel = select_poses(design, int(n), criterion, W=W, start=None if greedy is None else greedy[:int(n)])
         pp = predict_pose_accuracy(predict_parameters(design, sel.chosen, noise_scale), G)
         out.append(CurvePoint(int(n), sel.value, pp))
     return out

@@ -247,6 +247,16 @@ def select_poses(design: DesignMatrix, n: int, criterion: str = "D", W: np.ndarr
                          greedy_value, exchanges, sweeps, ident)
 
 
+def greedy_order(design: DesignMatrix, n: int, criterion: str = "D", W: np.ndarray | None = None) -> np.ndarray:
+    """The first `n` candidates of the greedy step of `select_poses`, in the order it picks them. Each pick
+    depends only on the picks before it, so `select_poses(design, k, ..., start=greedy_order(design, n)[:k])`
+    for k <= n is select_poses(design, k, ...) exactly: one greedy run serves every count of an accuracy curve."""
+    if not 1 <= n <= design.n_candidates:
+        raise InputError(f"cannot choose {n} poses from {design.n_candidates} candidates", field="N")
+    ridge = RIDGE * np.eye(len(design.base.independent))
+    return np.array(_greedy(design, n, criterion, design.scaled_weight(W) if W is not None else None, ridge), int)
+
+
 def _greedy(design, n, criterion, Ws, ridge) -> list[int]:
     chosen: list[int] = []
     free = np.ones(design.n_candidates, bool)

@@ -17,7 +17,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import pinocchio as pin
-from scipy.optimize import least_squares
 
 from robocal.io import opencv_extra
 from robocal.model.lie_arrays import skew
@@ -89,6 +88,7 @@ def refine_pose(camera: CameraModel, k: np.ndarray, P: np.ndarray, uv: np.ndarra
         return (dX @ dv).reshape(-1, 6)
 
     v0 = np.concatenate([T.translation, pin.log3(T.rotation)])
+    from scipy.optimize import least_squares   # 0.1 s: not at the start-up of every command
     sol = least_squares(fun, v0, jac=jac, method="lm", xtol=1e-14, ftol=1e-14, gtol=1e-14)
     rms = float(np.sqrt(np.mean(sol.fun.reshape(-1, 2) ** 2) * 2))
     return pin.SE3(pin.exp3(sol.x[3:]), sol.x[:3].copy()), rms

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import logging
 import os
+import time
 from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Callable, Iterable, Iterator
@@ -26,6 +27,23 @@ from robocal.errors import InputError
 
 #: times a finished task's lost result is awaited again (its worker died before the result was fetched)
 MAX_RESULT_WAITS = 3
+#: Dask's cost per task (scheduler, serialisation, the worker's bookkeeping) on a LocalCluster of this kind of
+#: machine: 3.2-4.6 ms a task per worker measured by benchmarks/fleet.py (empty tasks; docs/fleet.md, "Batches"),
+#: what `batch_size` weighs items against
+TASK_OVERHEAD_S = 0.004
+#: the share of a task that the per-task cost may take
+OVERHEAD_SHARE = 0.05
+#: a task lasts at most this long (s) once item times are known (results flow about as often as a table is written)
+MAX_TASK_S = 1.0
+#: tasks in flight per worker (one running, one waiting), and at least this many tasks per worker for what is left
+TASKS_PER_WORKER = 2
+#: Dask settings of the LocalCluster robocal starts. Its workers share the machine's cores with the scheduler and
+#: the nannies, so whatever runs beside the tasks slows them: the statistical profiler samples each task thread
+#: 100 times a second (for the dashboard's profile page), every process wakes 50 times a second to check its
+#: event loop, and work stealing rebalances queues that `completed` keeps at two tasks per worker anyway. Off or
+#: slower, 200 units of 30 ms on 2 workers reach 92-95 % of 2 plain processes instead of 86 % (docs/fleet.md).
+LOCAL_CONFIG = {"distributed.worker.profile.enabled": False, "distributed.admin.tick.interval": "100ms",
+                "distributed.scheduler.work-stealing": False}
 #: set in every LocalCluster worker: one BLAS thread per single-threaded worker process
 WORKER_ENV = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
 
@@ -47,27 +65,92 @@ def dask_client(scheduler: str | None = None, workers: int | None = None):
         finally:
             client.close()
         return
+    import dask.config   # optional [fleet] extra
+
     n = workers or default_workers()
-    # dashboard on a free port (never a clash with another cluster); the cluster's own logs only from WARNING
-    with LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
-                      silence_logs=logging.WARNING, env=WORKER_ENV) as cluster, Client(cluster) as client:
+    # dashboard on a free port (never a clash with another cluster); the cluster's own logs only from WARNING;
+    # LOCAL_CONFIG: less background work beside the tasks (the workers inherit it through their nannies)
+    with dask.config.set(LOCAL_CONFIG), \
+            LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
+                         silence_logs=logging.WARNING, env=WORKER_ENV) as cluster, Client(cluster) as client:
         yield client
 
 
+def batch_size(unit_seconds: float | None, left: int, workers: int, overhead_seconds: float = TASK_OVERHEAD_S,
+               share: float = OVERHEAD_SHARE, max_task_seconds: float = MAX_TASK_S) -> int:
+    """Items per Dask task: the fewest that keep Dask's per-task cost (overhead_seconds) at most `share` of a
+    task, b >= overhead (1 - share) / (share unit_seconds); at most what lasts max_task_seconds (results reach
+    the caller, and a fleet's rows its table, about as often as the table is written) and at most an even
+    share of what is left over TASKS_PER_WORKER tasks per worker (no worker idles while another finishes a
+    long task at the end). 1 while the item time is not known yet."""
+    if not unit_seconds or unit_seconds <= 0:
+        return 1
+    wanted = int(np.ceil(overhead_seconds * (1 - share) / (share * unit_seconds)))
+    by_time = max(1, int(max_task_seconds / unit_seconds + 1e-9))
+    by_balance = max(1, left // (TASKS_PER_WORKER * max(workers, 1)))
+    return max(1, min(wanted, by_time, by_balance))
+
+
+@dataclass
+class Batch:
+    """fn over a list of items in one task: per item (result, exception, seconds, warm), where warm says the
+    process had run an item before (the first one in a fresh worker also pays its imports)."""
+    fn: Callable
+
+    def __call__(self, items: list) -> list[tuple]:
+        out = []
+        for item in items:
+            warm = RUNS[0] > 0
+            RUNS[0] += 1
+            t0 = time.perf_counter()
+            try:
+                out.append((self.fn(item), None, time.perf_counter() - t0, warm))
+            except Exception as exc:       # this item's error: reported for it alone, the batch goes on
+                out.append((None, exc, time.perf_counter() - t0, warm))
+        return out
+
+
+#: items this process has run in Batch tasks (a worker's first one includes its imports)
+RUNS = [0]
+
+
 def completed(client, fn: Callable, items: list) -> Iterator[tuple[int, object, BaseException | None]]:
-    """Submit fn(item) for every item; yield (index, result, None) or (index, None, exception) as each
-    task finishes. A task whose workers died more often than the scheduler allows (KilledWorker) comes
-    back as an exception; every other task is re-run elsewhere by Dask when its worker is lost."""
+    """fn(item) for every item on the client's cluster; yield (index, result, None) or (index, None, exception)
+    as each finishes. Items go in batches (`batch_size`, from the item times measured so far: single items
+    first), with TASKS_PER_WORKER tasks in flight per worker, so a worker always has its next task waiting.
+    A task whose workers died more often than the scheduler allows (KilledWorker) comes back as an exception
+    for each of its items; every other task is re-run elsewhere by Dask when its worker is lost, so no item
+    is lost and each is yielded exactly once."""
     from dask.distributed import as_completed   # optional [fleet] extra
 
-    futures = [client.submit(fn, item, pure=False) for item in items]
-    index = {f.key: i for i, f in enumerate(futures)}
-    waits = dict.fromkeys(index, 0)
-    pending = as_completed(futures)
+    task = Batch(fn)
+    queue, seconds = list(range(len(items))), []
+    batch_of: dict[str, list[int]] = {}
+    waits: dict[str, int] = {}
+    pending = as_completed()
+
+    known = [-np.inf, 1]        # (when, task slots): asked of the scheduler at most once a second (an RPC)
+
+    def slots() -> int:
+        if time.monotonic() - known[0] > 1.0:
+            known[:] = [time.monotonic(), max(1, sum(client.nthreads().values()))]
+        return known[1]
+
+    def submit() -> None:
+        n = slots()
+        unit = float(np.median(seconds)) if seconds else None
+        while queue and len(batch_of) < TASKS_PER_WORKER * n:
+            take = batch_size(unit, len(queue), n)
+            idx, queue[:take] = queue[:take], []
+            future = client.submit(task, [items[i] for i in idx], pure=False)
+            batch_of[future.key], waits[future.key] = idx, 0
+            pending.add(future)
+
+    submit()
     for future in pending:
-        i = index[future.key]
+        idx = batch_of[future.key]
         try:
-            result = future.result()
+            out = future.result()
         except Exception as exc:
             # A result that lived on a worker which died before it was fetched is computed again by
             # Dask (the future is no longer 'error'): wait for that instead of reporting a loss.
@@ -75,23 +158,33 @@ def completed(client, fn: Callable, items: list) -> Iterator[tuple[int, object, 
                 waits[future.key] += 1
                 pending.add(future)
                 continue
-            yield i, None, exc   # the task's own error, or lost for good (KilledWorker): the caller records it
-        else:
-            yield i, result, None
+            out = [(None, exc, 0.0, False)] * len(idx)   # lost for good (KilledWorker): the caller records it
+        del batch_of[future.key]
         future.release()
+        seconds += [t for _, e, t, warm in out if warm and e is None]
+        submit()                       # the next tasks go out before the caller handles these results
+        for i, (result, exc, _, _) in zip(idx, out):
+            yield i, result, exc
 
 
 def map_tasks(fn: Callable, items: Iterable, scheduler: str | None = None, workers: int | None = None) -> list:
     """[fn(item) for item in items], on Dask when `scheduler` or `workers` is given, else in this process.
 
-    Results come back in input order; a task's exception is raised here.
+    Results come back in input order; an item's exception is raised here (after every item has run).
     """
     items = list(items)
     if scheduler is None and workers is None:
         return [fn(item) for item in items]
+    results, errors = [None] * len(items), {}
     with dask_client(scheduler, workers) as client:
-        futures = client.map(fn, items, pure=False)
-        return client.gather(futures)
+        for i, result, exc in completed(client, fn, items):
+            results[i] = result
+            if exc is not None:
+                errors[i] = exc
+    if errors:
+        raise errors[min(errors)]
+    return results
+
 
 def repetition_seeds(seed, n: int) -> list[np.random.SeedSequence]:
     """The n child seeds of SeedSequence(seed), repetition k's being the k-th."""

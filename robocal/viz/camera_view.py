@@ -10,7 +10,7 @@ it (the block's `camera` entry, robocal.viz.camera_scene).
 """
 from __future__ import annotations
 
-import meshcat.geometry as mg
+from robocal.viz import three_objects as mg   # meshcat's object commands without its Python package
 import numpy as np
 import pinocchio as pin
 

@@ -6,9 +6,9 @@ factor, so that the rotation residual shows as the angle between the measured an
 """
 from __future__ import annotations
 
-import meshcat.geometry as mg
 import numpy as np
 
+from robocal.viz import three_objects as three
 from robocal.viz.shapes import (COLOURS, points_object, segments_object, arrows, colour_scale, magnified_rotations,
                          nice_factor, quat_rotations, triads)
 
@@ -47,8 +47,8 @@ def draw_measurements(view, b: dict) -> None:
     node["predicted_before"].set_property("visible", False)
     if b["type"] == "pose":
         _pose_triads(view, node, b, meas)
-    view.root["current"][b["name"]].set_object(mg.Sphere(0.012 * max(view.size, 0.5)),
-                                               mg.MeshLambertMaterial(color=COLOURS["current"], opacity=0.5))
+    view.root["current"][b["name"]].set_object(three.Sphere(0.012 * max(view.size, 0.5)),
+                                               three.MeshLambertMaterial(color=COLOURS["current"], opacity=0.5))
 
 
 def _pose_triads(view, node, b: dict, origins: np.ndarray) -> None:

@@ -2,7 +2,8 @@
 
 `SceneView(scene)` draws a scene (robocal.viz.scene) into a meshcat Visualizer: a live one (the CLI
 starts the server) or, by default, an offline recorder whose `static_html()` is a self-contained page
-(meshcat's three.js bundle, meshes and commands inlined; opens from a file without a server).
+(meshcat's three.js bundle, meshes and commands inlined; opens from a file without a server). The shapes are
+written as meshcat commands by robocal.viz.three_objects: a page never imports meshcat's Python package.
 
 Drawn under /meshcat/robocal:
   robot/<link>            after calibration: URDF visual meshes, or the skeleton (robocal.viz.skeleton)
@@ -25,17 +26,16 @@ import json
 import logging
 from pathlib import Path
 
-import meshcat
-import meshcat.geometry as mg
 import numpy as np
 import pinocchio as pin
 
+from robocal.viz import three_objects as three
 from robocal.viz.meshcat_page import STEP_SCRIPT, RecordingWindow
 from robocal.viz.scene import samples_phrase, upgrade
 from robocal.viz.artefacts import draw_artefact
 from robocal.viz.camera_view import camera_commands, draw_camera
 from robocal.viz.measurements import current_point, draw_measurements, label_parts, rotation_scale
-from robocal.viz.shapes import ARROW_FRACTION, COLOURS, nice_factor, se3_from_pose7
+from robocal.viz.shapes import ARROW_FRACTION, COLOURS, nice_factor, pose_matrices
 from robocal.viz.skeleton import draw_skeleton, segment_at
 from robocal.model.robot import load_urdf
 
@@ -70,10 +70,10 @@ def load_visuals(robot_info: dict) -> list[tuple[str, object, object, np.ndarray
             log.info("visual %s: geometry %s not drawn", g.name, type(g.geometry).__name__)
             continue
         T = (frame.placement.inverse() * g.placement).homogeneous
-        if isinstance(geom, mg.MeshGeometry):
+        if isinstance(geom, three.MeshFile):
             T = T @ np.diag([*g.meshScale, 1.0])
         colour = int(np.dot((np.clip(g.meshColor[:3], 0, 1) * 255).astype(int), [65536, 256, 1]))
-        mat = mg.MeshPhongMaterial(color=colour, opacity=float(g.meshColor[3]))
+        mat = three.MeshPhongMaterial(color=colour, opacity=float(g.meshColor[3]))
         out.append((frame.name, geom, mat, T))
     return out
 
@@ -82,43 +82,36 @@ def _meshcat_geometry(g):
     path = g.meshPath or ""
     ext = Path(path).suffix.lower()
     if ext in (".dae", ".stl", ".obj") and Path(path).is_file():
-        return {".dae": mg.DaeMeshGeometry, ".stl": mg.StlMeshGeometry, ".obj": mg.ObjMeshGeometry}[ext].from_file(path)
+        return three.MeshFile(path)
     shape = g.geometry
     kind = type(shape).__name__
     if kind == "Box":
-        return mg.Box(2 * np.asarray(shape.halfSide))
+        return three.Box(2 * np.asarray(shape.halfSide))
     if kind == "Sphere":
-        return mg.Sphere(shape.radius)
+        return three.Sphere(shape.radius)
     if kind in ("Cylinder", "Capsule"):
-        return _ZCylinder(2 * shape.halfLength, shape.radius)
+        return three.Cylinder(2 * shape.halfLength, shape.radius, axis="z")     # URDF: along z; three.js: y
     return None
-
-
-class _ZCylinder(mg.Cylinder):
-    """URDF cylinders lie along z; meshcat's along y."""
-
-    def intrinsic_transform(self):
-        T = np.eye(4)
-        T[:3, :3] = pin.rpy.rpyToMatrix(np.pi / 2, 0, 0)
-        return T
 
 
 # ---- the scene ------------------------------------------------------------------------------------
 class SceneView:
     """Draw a robocal scene into meshcat and step through its samples.
 
-    scene: the dict of robocal.viz.scene (read_scene); vis: a meshcat Visualizer (None: offline recorder);
+    scene: the dict of robocal.viz.scene (read_scene); vis: a live meshcat.Visualizer (None: offline recorder);
     meshes: use the URDF's visual meshes when it has them (False: simple shapes, a much smaller page).
     """
 
-    def __init__(self, scene: dict, vis: meshcat.Visualizer | None = None, meshes: bool = True):
+    def __init__(self, scene: dict, vis=None, meshes: bool = True):
         self.scene = upgrade(scene)
         self.window = RecordingWindow() if vis is None else None
-        self.vis = meshcat.Visualizer(window=self.window) if vis is None else vis
+        self.vis = three.Node(self.window if vis is None else three.LiveWindow(vis))
         self.root = self.vis[ROOT]
         self.frames = {f: i for i, f in enumerate(scene["frames"])}
         self.links = [lk["name"] for lk in scene["robot"]["links"]]
         self.n_samples = len(scene["values"])
+        # every (sample, frame) placement as a 4x4, once: drawing and stepping read them thousands of times
+        self.matrices = {s: pose_matrices(np.asarray(self.scene["poses"][s], float)) for s in ("before", "after")}
         pts = [np.array(b["measured_after"]).reshape(-1, 3) for b in scene["blocks"]]
         origins = np.array(scene["poses"]["after"])[:, :, :3].reshape(-1, 3)
         cloud = np.vstack(pts + [origins])
@@ -138,7 +131,11 @@ class SceneView:
         self.drawn = False
 
     def pose(self, state: str, sample: int, frame: str) -> np.ndarray:
-        return se3_from_pose7(self.scene["poses"][state][sample][self.frames[frame]]).homogeneous
+        return self.matrices[state][sample, self.frames[frame]]
+
+    def poses(self, state: str, frame: str) -> np.ndarray:
+        """(samples, 4, 4) placements of one frame."""
+        return self.matrices[state][:, self.frames[frame]]
 
     # ---- drawing -------------------------------------------------------------------------------
     def draw(self, sample: int = 0) -> "SceneView":
@@ -152,7 +149,7 @@ class SceneView:
         self.moving = [] if visuals else draw_skeleton(self, "robot", "after", COLOURS["robot"], 0.025, 1.0)
         self.moving += draw_skeleton(self, "robot_before", "before", COLOURS["before"], 0.008, 0.6)
         for f in dict.fromkeys(b["frame"] for b in self.scene["blocks"] if b["frame"]):
-            self.root["frames"][f].set_object(mg.triad(0.05))
+            self.root["frames"][f].set_object(three.triad(0.05))
         for b in self.scene["blocks"]:
             draw_measurements(self, b)
             draw_artefact(self, b)
@@ -245,14 +242,14 @@ class SceneView:
     def static_html(self, sample: int = 0) -> str:
         """A self-contained page of the scene (offline recorder only), with sample stepping."""
         if self.window is None:
-            return self.vis.static_html()
+            return self.vis.window.visualizer.static_html()
         if not self.drawn:
             self.draw(sample)
         steps = []
         for i in range(self.n_samples):
             T, V = self.sample_commands(i)
-            steps.append({"T": {p: np.round(M.T.reshape(-1), 7).tolist() for p, M in T.items()}, "V": V,
-                          "label": self.sample_label(i)})
+            columns = np.round(np.stack(list(T.values())).transpose(0, 2, 1).reshape(len(T), 16), 7).tolist()
+            steps.append({"T": dict(zip(T, columns)), "V": V, "label": self.sample_label(i)})
         script = STEP_SCRIPT.format(steps=json.dumps(steps, separators=(",", ":")), start=int(sample))
         return self.window.get_scene(overlay=self.legend_html(), script=script)
 

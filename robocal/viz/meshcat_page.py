@@ -5,9 +5,22 @@ from __future__ import annotations
 
 import base64
 import uuid
-from importlib.resources import files
+from importlib.util import find_spec
+from pathlib import Path
 
 import umsgpack
+
+
+def viewer_script() -> Path:
+    """meshcat's viewer bundle (three.js and its command handler), found without importing meshcat's package
+    (which imports IPython and zmq); ImportError when the [viz] extra is not installed."""
+    spec = find_spec("meshcat")
+    if spec is None or not spec.submodule_search_locations:
+        raise ImportError("No module named 'meshcat'", name="meshcat")
+    path = Path(next(iter(spec.submodule_search_locations))) / "viewer" / "dist" / "main.min.js"
+    if not path.is_file():
+        raise ImportError(f"meshcat's viewer script is missing: {path}", name="meshcat")
+    return path
 
 
 # ---- offline meshcat window --------------------------------------------------------------------
@@ -18,9 +31,13 @@ class RecordingWindow:
         self.nodes: dict[str, dict] = {}
 
     def send(self, command) -> None:
-        if hasattr(command, "object"):
-            _stable_ids(command.object, command.path.lower())
-        data = command.lower()
+        """A command lowered to its dict (robocal.viz.three_objects.Node), or meshcat's command object."""
+        if isinstance(command, dict):
+            data = command
+        else:
+            if hasattr(command, "object"):
+                _stable_ids(command.object, command.path.lower())
+            data = command.lower()
         path, kind = data["path"], data["type"]
         if kind == "delete":
             for p in [p for p in self.nodes if p == path or p.startswith(path + "/")]:
@@ -44,7 +61,7 @@ class RecordingWindow:
         return out
 
     def get_scene(self, overlay: str = "", script: str = "") -> str:
-        js = (files("meshcat") / "viewer" / "dist" / "main.min.js").read_text(encoding="utf-8")
+        js = viewer_script().read_text(encoding="utf-8")
         cmds = ",\n".join(f'"{base64.b64encode(c).decode()}"' for c in self.commands())
         return _PAGE.format(mainjs=js, commands=cmds, overlay=overlay, script=script)
 

@@ -1,8 +1,9 @@
 """The HTML report of a calibration: one self-contained file.
 
 Summary table, residuals per block, parameter table, the identifiability statement in words, the plots
-(robocal.viz.plots, embedded as base64 PNG) and the 3D scene (robocal.viz.meshcat_check, embedded as an iframe's srcdoc).
-Inputs are result.json and scene.json of an output folder (or the same data in memory).
+(robocal.viz.svg_plots, inline SVG) and the 3D scene (robocal.viz.meshcat_check, embedded as an iframe's srcdoc).
+Inputs are result.json and scene.json of an output folder (or the same data in memory). Neither matplotlib nor
+meshcat's Python package is imported: the page needs only meshcat's viewer script (the [viz] extra).
 Lengths are shown in mm and angles in mrad; the tables say so.
 """
 from __future__ import annotations
@@ -16,14 +17,16 @@ from pathlib import Path
 
 import numpy as np
 
-from robocal.viz import plots
-from robocal.viz.camera_plots import camera_images, reprojection_panels
+from robocal.viz import svg_plots as plots
 from robocal.errors import InputError
+from robocal.viz.meshcat_check import SceneView
 from robocal.viz.report_validation import evaluation_section, refusal_section
 from robocal.viz.scene import read_scene, samples_phrase
 
 log = logging.getLogger(__name__)
 SHOWN = {"m": (1e3, "mm"), "rad": (1e3, "mrad")}
+#: where the evaluation sections sit in report.html (robocal evaluate replaces what lies between)
+EVALUATIONS = ("<!--robocal:evaluations-->", "<!--/robocal:evaluations-->")
 
 
 def png_base64(fn, *args, **kwargs) -> str:
@@ -50,7 +53,7 @@ def _length_rows(block: dict, state: str) -> np.ndarray:
 
 # ---- plots from the output folder's data --------------------------------------------------------
 def report_plots(result: dict, scene: dict | None) -> list[tuple[str, str]]:
-    """[(caption, base64 PNG)] for the report."""
+    """[(caption, <svg> element)] for the report."""
     out = []
     if scene:
         for b in scene["blocks"]:
@@ -60,37 +63,40 @@ def report_plots(result: dict, scene: dict | None) -> list[tuple[str, str]]:
             r0, r1 = _length_rows(b, "before"), _length_rows(b, "after")
             if r0.shape[1]:
                 out.append((f"Residual per sample of block '{b['name']}' ({b['type']}): length rows, mm",
-                            png_base64(plots.residuals_per_sample, 1e3 * np.linalg.norm(r0, axis=1),
-                                 1e3 * np.linalg.norm(r1, axis=1), title=f"{b['name']}: residual per sample")))
+                            plots.residuals_per_sample(1e3 * np.linalg.norm(r0, axis=1), 1e3 * np.linalg.norm(r1, axis=1),
+                                                       title=f"{b['name']}: residual per sample")))
         errs = {s: [np.array(b[f"predicted_{s}"]).reshape(-1, 3) - np.array(b[f"measured_{s}"]).reshape(-1, 3)
                     for b in scene["blocks"] if b[f"measured_{s}"] and "camera" not in b] for s in ("before", "after")}
         if errs["after"]:
             out.append(("Per-axis error of every drawn point (predicted - measured), measurement frame, mm",
-                        png_base64(plots.error_histograms, 1e3 * np.vstack(errs["before"]), 1e3 * np.vstack(errs["after"]))))
+                        plots.error_histograms(1e3 * np.vstack(errs["before"]), 1e3 * np.vstack(errs["after"]))))
     est = [p for p in result.get("parameters", []) if p.get("vary")]
     if est:
         out.append(("Estimated parameters with +-1 standard error (mm, mrad)",
-                    png_base64(plots.parameter_estimates, [p["name"] for p in est], [p["value"] for p in est],
-                         [p.get("stderr") for p in est], units=[p.get("unit", "") for p in est])))
+                    plots.parameter_estimates([p["name"] for p in est], [p["value"] for p in est],
+                                              [p.get("stderr") for p in est], units=[p.get("unit", "") for p in est])))
     ident = (scene or {}).get("identification")
     if ident and ident.get("singular_values"):
         out.append((f"Singular values of the column-scaled identification Jacobian at the start point; the "
                     f"base-parameter selection kept {ident['rank']} of {ident['requested']} parameters",
-                    png_base64(plots.singular_values, ident["singular_values"], min(ident["rank"], len(ident["singular_values"])))))
+                    plots.singular_values(ident["singular_values"], min(ident["rank"], len(ident["singular_values"])))))
     return out
 
 
 def camera_figures(b: dict) -> list[tuple[str, str]]:
-    """A camera block's figures: RMS per image before / after, and detected against reprojected corners."""
+    """A camera block's figures: RMS per image before / after (SVG), and detected against reprojected corners
+    (matplotlib panels as an embedded PNG: the [viz] extra, imported only when a camera block is drawn)."""
+    from robocal.viz.camera_plots import camera_images, reprojection_panels   # matplotlib: the [viz] extra
     images = camera_images(b)
     buf = io.BytesIO()
     _, scale, shown = reprojection_panels(images, b["camera"]["image_size"], buf)
+    caption = (f"Block '{b['name']}': detected corners (dots) and the calibrated model's reprojections (crosses) "
+               f"in the {shown} image(s) with the largest RMS of {len(images)}; arrows x{scale:g}")
+    png = base64.b64encode(buf.getvalue()).decode("ascii")
     return [(f"Reprojection RMS per image of block '{b['name']}' (camera), px per corner",
-             png_base64(plots.residuals_per_sample, [im["rms_before"] for im in images],
-                        [im["rms_after"] for im in images], unit="px", title=f"{b['name']}: RMS per image")),
-            (f"Block '{b['name']}': detected corners (dots) and the calibrated model's reprojections (crosses) in "
-             f"the {shown} image(s) with the largest RMS of {len(images)}; arrows x{scale:g}",
-             base64.b64encode(buf.getvalue()).decode("ascii"))]
+             plots.residuals_per_sample([im["rms_before"] for im in images], [im["rms_after"] for im in images],
+                                        unit="px", title=f"{b['name']}: RMS per image")),
+            (caption, f'<img alt="{html.escape(caption)}" src="data:image/png;base64,{png}">')]
 
 
 # ---- HTML ---------------------------------------------------------------------------------------
@@ -162,22 +168,29 @@ def report_html(result: dict, scene: dict | None = None, meshes: bool = True, ti
                         "parameters")]
     if iso9283:
         parts += iso9283_section(iso9283)
-    for evaluation in result.get("evaluations") or []:      # robocal evaluate's files in the folder
-        parts += evaluation_section(evaluation)
+    parts.append(evaluations_html(result.get("evaluations") or []))     # robocal evaluate's files in the folder
     figures = report_plots(result, scene)
     if figures:
         parts.append("<h2>Plots</h2>")
-        parts += [figure_html(c, b) for c, b in figures]
+        parts += [svg_figure(c, b) for c, b in figures]
     if scene:
-        from robocal.viz.meshcat_check import SceneView
-        page = SceneView(scene, meshes=meshes).static_html()
-        parts += ["<h2>3D scene</h2><p>The robot after calibration (orange skeleton: before) at each sample; "
-                  "measured points, predictions and residual arrows scaled for visibility. Use the buttons to step "
-                  "through the samples and the meshcat menu to show or hide parts.</p>",
-                  f'<iframe class="scene" title="3D scene" srcdoc="{html.escape(page, quote=True)}"></iframe>']
+        parts += scene_section(scene, meshes)
     else:
         parts.append("<p>No scene.json in this result: no 3D scene and no per-sample plots.</p>")
     return html_page(title, parts)
+
+
+def scene_section(scene: dict, meshes: bool) -> list[str]:
+    """The 3D scene as an iframe (meshcat's viewer; without the [viz] extra, a line that says so)."""
+    try:
+        page = SceneView(scene, meshes=meshes).static_html()
+    except ImportError as exc:
+        return [f"<h2>3D scene</h2><p>Not drawn: {html.escape(str(exc.name))} is not installed "
+                "(pip install 'robocal[viz]').</p>"]
+    return ["<h2>3D scene</h2><p>The robot after calibration (orange skeleton: before) at each sample; "
+            "measured points, predictions and residual arrows scaled for visibility. Use the buttons to step "
+            "through the samples and the meshcat menu to show or hide parts.</p>",
+            f'<iframe class="scene" title="3D scene" srcdoc="{html.escape(page, quote=True)}"></iframe>']
 
 
 def html_page(title: str, parts: list[str]) -> str:
@@ -185,7 +198,8 @@ def html_page(title: str, parts: list[str]) -> str:
     style = ("body{font-family:sans-serif;max-width:1100px;margin:1em auto;padding:0 1em}"
              "table{border-collapse:collapse;margin:.5em 0}td,th{border:1px solid #ccc;padding:2px 8px;"
              "font-size:13px;text-align:left}th{background:#eef}img{max-width:100%}"
-             "iframe.scene{width:100%;height:640px;border:1px solid #ccc}figcaption{font-size:12px;color:#444}")
+             "iframe.scene{width:100%;height:640px;border:1px solid #ccc}figcaption{font-size:12px;color:#444}"
+             "figure svg{max-width:100%;height:auto}")
     return (f"<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>{html.escape(title)}</title>"
             f"<style>{style}</style></head><body>{''.join(parts)}</body></html>")
 
@@ -194,6 +208,11 @@ def figure_html(caption: str, png: str) -> str:
     """An embedded PNG (base64, from png_base64) with its caption."""
     return (f'<figure><img alt="{html.escape(caption)}" src="data:image/png;base64,{png}"><figcaption>'
             f"{html.escape(caption)}</figcaption></figure>")
+
+
+def svg_figure(caption: str, svg: str) -> str:
+    """An inline SVG plot (robocal.viz.svg_plots) with its caption."""
+    return f"<figure>{svg}<figcaption>{html.escape(caption)}</figcaption></figure>"
 
 
 def report_bytes(result, scene=None, meshes: bool = True, iso9283: dict | None = None) -> bytes:
@@ -218,6 +237,19 @@ def read_result(folder: str | Path) -> dict:
         raise InputError(f"not valid JSON: {exc.msg}", source=str(path), row=exc.lineno) from exc
 
 
+def evaluations_html(evaluations: list[dict]) -> str:
+    """The evaluation sections between markers, so that `report_with_new_evaluations` can replace them."""
+    return EVALUATIONS[0] + "".join(part for e in evaluations for part in evaluation_section(e)) + EVALUATIONS[1]
+
+
+def folder_evaluations(folder: Path, new: list[dict] | None = None) -> list[dict]:
+    """The folder's evaluation_*.json, each replaced by the `new` one of the same session and refit choice."""
+    found = {p.name: json.loads(p.read_text(encoding="utf-8")) for p in sorted(folder.glob("evaluation_*.json"))}
+    def key(e):        # one evaluation per session and refit choice
+        return e.get("data"), bool(e.get("refitted"))
+    return [e for e in found.values() if all(key(e) != key(n) for n in new or [])] + list(new or [])
+
+
 def report_with_evaluations(folder: str | Path, new: list[dict] | None = None, meshes: bool = True) -> bytes:
     """report.html content of an output folder, with its evaluation_*.json files and `new` evaluations."""
     folder = Path(folder)
@@ -227,12 +259,22 @@ def report_with_evaluations(folder: str | Path, new: list[dict] | None = None, m
         log.warning("%s has no scene.json: the report has no 3D scene and no per-sample plots", folder)
     iso_path = folder / "iso9283.json"
     iso = json.loads(iso_path.read_text(encoding="utf-8")) if iso_path.is_file() else None
-    found = {p.name: json.loads(p.read_text(encoding="utf-8")) for p in sorted(folder.glob("evaluation_*.json"))}
-    def key(e):        # one evaluation per session and refit choice
-        return e.get("data"), bool(e.get("refitted"))
-    evaluations = [e for e in found.values() if all(key(e) != key(n) for n in new or [])]
-    result["evaluations"] = evaluations + list(new or [])
+    result["evaluations"] = folder_evaluations(folder, new)
     return report_bytes(result, scene, meshes=meshes, iso9283=iso)
+
+
+def report_with_new_evaluations(folder: str | Path, new: list[dict]) -> bytes:
+    """The folder's report.html with its evaluation sections brought up to date (`robocal evaluate`): the rest
+    of the page (tables, plots, 3D scene) is what the fit wrote, so only the evaluation sections are made
+    anew; a report without the markers (written before them) is made anew whole, as `robocal calibrate` does
+    (simple shapes in the scene)."""
+    folder = Path(folder)
+    page = (folder / "report.html").read_text(encoding="utf-8")
+    start, end = page.find(EVALUATIONS[0]), page.find(EVALUATIONS[1])
+    if start < 0 or end < start or page.count(EVALUATIONS[0]) != 1:
+        return report_with_evaluations(folder, new, meshes=False)
+    sections = evaluations_html(folder_evaluations(folder, new))
+    return (page[:start] + sections + page[end + len(EVALUATIONS[1]):]).encode("utf-8")
 
 
 def write_report(folder: str | Path, out: str | Path | None = None, meshes: bool = True) -> Path:

@@ -281,7 +281,12 @@ def frame_poses(problem, ms: ModelState, states, frame_names: list[str],
 
 def scene_bytes(problem, result, params_before) -> bytes:
     """scene.json content for `write_results(..., extra={"scene.json": ...})`."""
-    return json.dumps(scene_data(problem, result, params_before), separators=(",", ":")).encode("utf-8")
+    return scene_json(scene_data(problem, result, params_before))
+
+
+def scene_json(scene: dict) -> bytes:
+    """scene.json content of a scene_data dict (keep the dict for the report: no second parse)."""
+    return json.dumps(scene, separators=(",", ":")).encode("utf-8")
 
 
 def read_scene(path: str | Path) -> dict:

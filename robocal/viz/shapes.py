@@ -1,11 +1,11 @@
 """Drawing primitives of the visual check: colours, the residual colour scale, arrows, triads, segments."""
 from __future__ import annotations
 
-import meshcat.geometry as mg
 import numpy as np
 import pinocchio as pin
 
 from robocal.residuals.base import basis_from_normal
+from robocal.viz import three_objects as three
 
 COLOURS = {"measured": 0x202020, "before": 0xff8c00, "after": 0x1f77b4, "robot": 0x8ca6c0,
            "current": 0xd000d0, "artefact": 0x6fa86f, "laser": 0xe02020, "steel": 0xa0a0a0}
@@ -17,6 +17,19 @@ ARROW_FRACTION = 0.08      # the largest arrow is drawn this fraction of the sce
 def se3_from_pose7(p7) -> pin.SE3:
     x, y, z, qx, qy, qz, qw = p7
     return pin.SE3(pin.Quaternion(qw, qx, qy, qz).toRotationMatrix(), np.array([x, y, z]))
+
+
+def pose_matrices(p7: np.ndarray) -> np.ndarray:
+    """(..., 4, 4) homogeneous matrices of (..., 7) poses x y z qx qy qz qw (unit quaternions, as the scene
+    stores them): se3_from_pose7 for whole arrays at once."""
+    x, y, z, w = (p7[..., k] for k in (3, 4, 5, 6))
+    T = np.zeros(p7.shape[:-1] + (4, 4))
+    T[..., 0, 0], T[..., 0, 1], T[..., 0, 2] = 1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)
+    T[..., 1, 0], T[..., 1, 1], T[..., 1, 2] = 2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)
+    T[..., 2, 0], T[..., 2, 1], T[..., 2, 2] = 2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)
+    T[..., :3, 3] = p7[..., :3]
+    T[..., 3, 3] = 1.0
+    return T
 
 
 def colour_scale(values: np.ndarray, vmax: float) -> np.ndarray:
@@ -52,12 +65,12 @@ def arrows(start: np.ndarray, vec: np.ndarray, colours: np.ndarray) -> tuple[np.
 
 
 def points_object(points: np.ndarray, colour: int, size: float):
-    return mg.Points(mg.PointsGeometry(points.T.astype(np.float32)), mg.PointsMaterial(size=size, color=colour))
+    return three.Points(three.PointsGeometry(points.T.astype(np.float32)), three.PointsMaterial(size=size, color=colour))
 
 
 def segments_object(pos: np.ndarray, col: np.ndarray | None = None, colour: int = 0xffffff):
-    return mg.LineSegments(mg.PointsGeometry(pos, col),
-                           mg.LineBasicMaterial(color=colour, vertexColors=col is not None))
+    return three.LineSegments(three.PointsGeometry(pos, col),
+                           three.LineBasicMaterial(color=colour, vertexColors=col is not None))
 
 
 def segment_transform(a: np.ndarray, b: np.ndarray, radius_scale: float = 1.0) -> np.ndarray:

@@ -7,9 +7,9 @@ ends stay on the points they join at every sample.
 """
 from __future__ import annotations
 
-import meshcat.geometry as mg
 import numpy as np
 
+from robocal.viz import three_objects as three
 from robocal.viz.shapes import segment_transform
 
 RADIUS = {"link": 1.0, "arm": 0.6, "plate": 0.6}      # times the skeleton's radius
@@ -17,21 +17,17 @@ SPHERE = {"joint": 1.6, "closure": 1.4}
 TOL = 1e-9
 
 
-def _poses(view, state: str, link: str) -> np.ndarray:
-    return np.array([view.pose(state, i, link) for i in range(view.n_samples)])
-
-
 def draw_skeleton(view, name: str, state: str, colour: int, radius: float, opacity: float) -> list[tuple]:
     """Draw the skeleton of one state under /<name>; returns its moving segments [(path, state, ends)]."""
-    mat = mg.MeshLambertMaterial(color=colour, opacity=opacity)
+    mat = three.MeshLambertMaterial(color=colour, opacity=opacity)
     sk = view.scene["robot"]["skeleton"][state]
     moving = []
     for k, (a, pa, b, pb, kind) in enumerate(sk["segments"]):
-        rel = np.linalg.inv(_poses(view, state, a)) @ _poses(view, state, b)
+        rel = np.linalg.inv(view.poses(state, a)) @ view.poses(state, b)
         local = rel[:, :3, :3] @ np.asarray(pb, float) + rel[:, :3, 3]     # b's end in a's frame, per sample
         if np.linalg.norm(local - np.asarray(pa, float), axis=1).max() < TOL:
             continue
-        geom = mg.Cylinder(1.0, RADIUS[kind] * radius)
+        geom = three.Cylinder(1.0, RADIUS[kind] * radius)
         if np.abs(local - local[0]).max() < TOL:
             node = view.root[name][a][f"segment{k}"]
             node.set_object(geom, mat)
@@ -41,7 +37,7 @@ def draw_skeleton(view, name: str, state: str, colour: int, radius: float, opaci
             moving.append((f"{name}/moving/segment{k}", state, (a, pa, b, pb)))
     for k, (link, p, kind) in enumerate(sk["spheres"]):
         node = view.root[name][link]["joint" if kind == "joint" else f"{kind}{k}"]     # one joint per link
-        node.set_object(mg.Sphere(SPHERE[kind] * radius), mat)
+        node.set_object(three.Sphere(SPHERE[kind] * radius), mat)
         T = np.eye(4)
         T[:3, 3] = p
         node.set_transform(T)

@@ -22,7 +22,7 @@ from robocal.estimation.calibrate import calibrate
 from robocal.estimation.camera_report import camera_summary
 from robocal.estimation.result import CalibrationResult
 from robocal.io.output_folder import check_replaceable
-from robocal.viz.scene import scene_bytes, scene_note
+from robocal.viz.scene import scene_data, scene_json, scene_note
 from robocal.workflows.input_checks import check_inputs
 from robocal.workflows.iso9283 import check_iso9283, iso9283_run
 from robocal.workflows.outputs import write_results
@@ -84,8 +84,9 @@ def run_calibration(setup: Setup, output_dir: str | Path | None = None, *, force
     note = scene_note(setup)
     if note:
         notes.append(note)
+    scene = scene_data(setup, result, result.registered_nominal(nominal))
     files = {"config.yaml": yaml.safe_dump(setup.config.to_dict(), sort_keys=False).encode(),
-             "scene.json": scene_bytes(setup, result, result.registered_nominal(nominal))}
+             "scene.json": scene_json(scene)}
     if setup.cameras:               # the hand-eye and intrinsics as a camera user reads them (docs/camera.md)
         cams = {name: camera_summary(problem, c) for name, c in setup.cameras.items()}
         files["hand_eye.json"] = (json.dumps(cams, indent=2) + "\n").encode()
@@ -95,7 +96,7 @@ def run_calibration(setup: Setup, output_dir: str | Path | None = None, *, force
         iso = iso9283_run(setup, nominal, problem.params, result).to_dict()
         files["iso9283.json"] = (json.dumps(iso, indent=2) + "\n").encode()
     if setup.config.output.report if report is None else report:
-        page, why = report_page(result, files["scene.json"], iso)
+        page, why = report_page(result, scene, iso)     # the scene in memory, not parsed back from its JSON
         if page is not None:
             files["report.html"] = page
         else:
@@ -106,10 +107,10 @@ def run_calibration(setup: Setup, output_dir: str | Path | None = None, *, force
     return CalibrationRun(setup, result, written, warnings, notes, rejected)
 
 
-def report_page(result, scene: bytes, iso: dict | None) -> tuple[bytes | None, str]:
+def report_page(result, scene: dict, iso: dict | None) -> tuple[bytes | None, str]:
     """(report.html, "") or (None, why it is missing): it needs the optional [viz] extra."""
     try:
-        from robocal.viz.report import report_bytes   # matplotlib and meshcat: the optional [viz] extra
+        from robocal.viz.report import report_bytes   # the optional [viz] extra (meshcat's viewer script)
     except ImportError as exc:
         return None, f"no report.html ({exc.name} is not installed: pip install 'robocal[viz]')"
     return report_bytes(result, scene, meshes=False, iso9283=iso), ""      # meshes=False: 1.5 MB, not 10

@@ -131,8 +131,8 @@ def write_evaluation(folder: str | Path, report: EvaluationReport) -> tuple[Path
     note = ""
     if "report.html" in files:
         try:
-            from robocal.viz.report import report_with_evaluations   # matplotlib: the optional [viz] extra
-            files["report.html"] = report_with_evaluations(folder, [report.to_dict()])
+            from robocal.viz.report import report_with_new_evaluations   # the optional [viz] extra
+            files["report.html"] = report_with_new_evaluations(folder, [report.to_dict()])
         except ImportError as exc:
             note = f"report.html not updated ({exc.name} is not installed)"
     write_folder(folder, files, force=True)

@@ -38,7 +38,7 @@ from robocal.workflows.config_types import CalibrationConfig, PlanConfig
 from robocal.workflows.plan_camera import camera_block, camera_plan_problem
 from robocal.workflows.setup import build_robot, build_setup, joint_columns
 from robocal.io.tables import ANGLE_UNITS, LENGTH_UNITS, Table
-from robocal.design.selection import DesignMatrix, PoseSelection, select_poses
+from robocal.design.selection import DesignMatrix, PoseSelection, greedy_order, select_poses
 from robocal.design.candidates import CandidateFilter, filter_candidates, grid_candidates, \
     random_candidates
 from robocal.design.criteria import CRITERIA
@@ -111,12 +111,16 @@ def plan_from_config(path: str | Path, seed: int | None = None, scheduler: str |
         raise InputError(f"cannot choose {plan.n} poses from {design.n_candidates} candidates", source=config.source,
                          field="plan.N")
     W = position_weight(G)
-    selection = select_poses(design, plan.n, plan.criterion, W=W)
+    counts = [int(c) for c in plan.curve or _default_counts(design, plan.n) if 1 <= int(c) <= design.n_candidates]
+    greedy = greedy_order(design, max([plan.n, *counts]), plan.criterion, W)     # one greedy run for every count
+    selection = select_poses(design, plan.n, plan.criterion, W=W, start=greedy[:plan.n])
     params = predict_parameters(design, selection.chosen)
     accuracy = predict_pose_accuracy(params, G)
-    counts = [int(c) for c in plan.curve or _default_counts(design, plan.n) if 1 <= int(c) <= design.n_candidates]
-    curve_of = functools.partial(accuracy_curve, design, G=G, criterion=plan.criterion, W=W)
-    curve = [c for one in map_tasks(curve_of, [[n] for n in counts], scheduler, workers) for c in one]
+    curve_of = functools.partial(accuracy_curve, design, G=G, criterion=plan.criterion, W=W, greedy=greedy)
+    others = [n for n in counts if n != plan.n]          # the plan's own count is the selection above
+    done = {c.n: c for one in map_tasks(curve_of, [[n] for n in others], scheduler, workers) for c in one}
+    done[plan.n] = CurvePoint(plan.n, selection.value, accuracy)
+    curve = [done[n] for n in counts]
     prismatic = [is_prismatic(robot, j) for j in joint_names]
     return Plan(Path(config.source), frame, joint_names, list(joint_cols.values()), candidates, screening, design,
                 selection, params, validation, xyz, accuracy, curve, plan.output_dir,
