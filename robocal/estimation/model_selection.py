@@ -22,8 +22,7 @@ import numpy as np
 
 from robocal.estimation.calibrate import CalibrationOptions, calibrate
 from robocal.estimation.cross_validation import CVTable
-from robocal.estimation.model_criteria import held_out_norms
-from robocal.estimation.prediction_errors import primary_errors, term_errors
+from robocal.estimation.model_criteria import approximate_loo, held_out_norms, linearise, norms
 from robocal.estimation.problem import Problem
 from robocal.estimation.session_holdout import held_out_figure, leave_one_session_out, session_norms
 
@@ -54,7 +53,9 @@ class Selection:
 
     def table(self) -> list[str]:
         unit = next((r.cv.unit for r in self.rungs if r.cv), "mm")
-        lines = [f"Model ladder, {self.folds}: RMS of the error norm ({unit}) on held-out samples",
+        others = next((list(r.cv.others) for r in self.rungs if r.cv and r.cv.others), [])
+        lines = [f"Model ladder, {self.folds}: RMS of the error norm ({unit}) on held-out samples"
+                 + (f"; orientation of pose blocks: train / held-out ({', '.join(others)})" if others else ""),
                  "free: parameters the rung frees (before the identifiability selection)",
                  f"{'':2}{'model':<34}{'free':>7}{'train RMS':>11}{'held-out RMS':>14}{'+- s.e.':>9}"]
         for k, r in enumerate(self.rungs):
@@ -62,8 +63,10 @@ class Selection:
             if r.cv is None:
                 lines.append(f"{mark:<2}{r.name:<34}{'':>7}  skipped: {r.skipped}")
                 continue
-            lines.append(f"{mark:<2}{r.name:<34}{r.n_free:>7}{r.cv.train_rms:>11.4g}{r.cv.rms:>14.4g}"
-                         f"{r.cv.stderr:>9.2g}")
+            line = f"{mark:<2}{r.name:<34}{r.n_free:>7}{r.cv.train_rms:>11.4g}{r.cv.rms:>14.4g}{r.cv.stderr:>9.2g}"
+            for u, v in r.cv.others.items():        # orientation of pose blocks
+                line += f"   {v['train']:.4g} / {v['rms']:.4g} +- {v['stderr']:.2g} {u}"
+            lines.append(line)
         lines.append(f"* chosen ({self.rule}); b lowest held-out RMS")
         return lines
 
@@ -148,12 +151,23 @@ def rung_by_sessions(make_sessions: Callable[[], list[Problem]], options: Calibr
 
 def closed_form_cv(problem: Problem, folds: list[np.ndarray]) -> CVTable:
     """The closed-form leave-one-out of a fitted problem over `folds` (whole postures) as a CV table: held-out
-    and training RMS of the error norm with the held-out standard error over the points (no refits)."""
-    _, held = held_out_norms(problem, folds)
-    rms, se = held_out_figure(held)
-    _, train, _ = primary_errors(term_errors(problem))
-    unit = "mm" if any(u == "length" for r in problem.residuals for u in r.row_units) else "mrad"
-    return CVTable(unit, [], rms, se, float(np.sqrt(np.mean(train ** 2))) if len(train) else float("nan"))
+    and training RMS of the error norm (mm for points; mrad of pose blocks as a second unit) with the held-out
+    standard error over the points (no refits)."""
+    lin = linearise(problem)
+    raw = approximate_loo(lin, folds).raw
+    raw = np.where(np.isnan(raw), np.inf, raw)
+    fitted_raw = lin.r[lin.data] / lin.scale[lin.data]      # the fit's own SI residual of every data row
+    figures = {}
+    for kind, unit in (("length", "mm"), ("angle", "mrad")):
+        if not np.any(lin.data & (lin.kind == kind)):
+            continue
+        _, held = norms(lin, raw, kind)
+        _, fitted = norms(lin, fitted_raw, kind)
+        rms, se = held_out_figure(held)
+        figures[unit] = (rms, se, float(np.sqrt(np.mean(fitted ** 2))) if len(fitted) else float("nan"))
+    unit = next(iter(figures))
+    rms, se, tr = figures.pop(unit)
+    return CVTable(unit, [], rms, se, tr, {u: {"rms": a, "stderr": b, "train": c} for u, (a, b, c) in figures.items()})
 
 
 def choose_rung(figures: list[RungFigure | None]) -> tuple[int, int]:
