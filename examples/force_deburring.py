@@ -12,14 +12,23 @@ joints, one tick of sensor delay, friction identified by robocal from a simulate
 the former design against the contact observer (docs/dynamics.md, "Under stiction").
 Run:  OMP_NUM_THREADS=1 python examples/force_deburring.py
 """
+import sys
+from pathlib import Path
+
 import numpy as np
 import pinocchio as pin
 
 import robocal
+from robocal.io import page_differences, update_page
 from robocal.dynamics import (ActuatorModel, Environment, ExternalForceEstimator, FrictionModel, MotionParams,
                               PathGenerator, RobotSimulator, TickDifferentiator, Wall, movelf, servo_gains)
 from robocal.dynamics import (CircularPath, CurrentForceLoop, ForceFilter, admittance_for_margins, margins,
                               project_limits, tangent_loop)
+
+PAGE = Path(__file__).resolve().parents[1] / "docs" / "dynamics.md"
+COMMAND = "OMP_NUM_THREADS=1 python examples/force_deburring.py"
+flags = {a for a in sys.argv[1:] if a.startswith("--")}
+blocks = {}     # the tables docs/dynamics.md shows (--write-docs writes them there, --check-docs compares)
 
 TS, F_DES, FILTER_HZ, STEADY = 0.004, 20.0, 10.0, 250
 robot = robocal.load_example("ur5")
@@ -46,15 +55,17 @@ lagging = [5e-4 * margins(tangent_loop(model, q0, tcp, gains, along, friction, T
 print("with a first-order current loop of 1000 / 300 / 100 / 50 Hz instead of an ideal one: gain margin 1 at "
       + " / ".join(f"{a:.2e}" for a in lagging))
 print(f"design: {FILTER_HZ:g} Hz filter, admittance {admittance:.3e} m/(N s)")
-print(f"\n| k_e [N/m] | original 2e-3, no filter: GM / PM / crossover | designed {admittance:.2e}, {FILTER_HZ:g} Hz: "
-      "GM / PM / crossover |\n|---|---|---|")
+table = [f"| k_e [N/m] | original 2e-3, no filter: GM / PM / crossover | designed {admittance:.2e}, {FILTER_HZ:g} Hz: "
+         "GM / PM / crossover |", "|---|---|---|"]
 design_rows = []
 for k in np.geomspace(1e3, 1e5, 5):
     old, mg = margins(loop, k, 2e-3), margins(loop, k, admittance, force_filter)
     design_rows.append(mg)
     cells = [f"{r.gain_margin:.2f} / {r.phase_margin:.1f} deg / {r.crossover_hz:.2f} Hz"
              + ("" if r.stable else ", unstable") for r in (old, mg)]
-    print(f"| {k:.2g} | {cells[0]} | {cells[1]} |")
+    table.append(f"| {k:.2g} | {cells[0]} | {cells[1]} |")
+blocks["margins"] = "\n".join(table)
+print("\n" + blocks["margins"])
 
 
 # ---- 2. the deburring run, original and designed controller -----------------------------------------
@@ -149,9 +160,9 @@ rows = [
      f"PM >= {min(r.phase_margin for r in design_rows):.1f} deg for 1e3..1e5 N/m",
      f"{FILTER_HZ:g} Hz filter, admittance {admittance:.2e} m/(N s)"),
 ]
-print("\n| spec figure | robocal figure | how computed |\n|---|---|---|")
-for spec, ours, how in rows:
-    print(f"| {spec} | {ours} | {how} |")
+blocks["spec figures"] = "\n".join(["| spec figure | robocal figure | how computed |", "|---|---|---|"]
+                                   + [f"| {spec} | {ours} | {how} |" for spec, ours, how in rows])
+print("\n" + blocks["spec figures"])
 
 
 # ---- 4. under stiction: stick-slip joints, sensor delay, friction identified from simulated data ----
@@ -162,22 +173,32 @@ plant = force_scenario.Plant(model, tcp, q0, actuator, StickSlipFriction(coulomb
 ident = force_scenario.identify_friction(plant)
 real_loop = tangent_loop(model, q0, tcp, gains, along, plant.friction, TS, delay=plant.delay)
 real_admittance = admittance_for_margins(real_loop, 1e5, force_filter, min_stiffness=1e3)
-print("\nunder stiction (breakaway 1.25 x Coulomb, Stribeck 0.01 rad/s), 5 mA noise, 1 tick sensor delay, "
+stiction = []
+stiction.append("under stiction (breakaway 1.25 x Coulomb, Stribeck 0.01 rad/s), 5 mA noise, 1 tick sensor delay, "
       "2e4 N/m wall 30 mm ahead, 20 N, noise seed 1")
-print(f"identified from a 10 s Fourier excitation: {ident.message}; Coulomb {np.round(ident.friction.coulomb, 2)} "
+stiction.append(f"identified from a 10 s Fourier excitation: {ident.message}; Coulomb {np.round(ident.friction.coulomb, 2)} "
       f"N m (true {coulomb}), viscous {np.round(ident.friction.viscous, 2)}")
-print(f"admittance {real_admittance:.3e} m/(N s) (delay in the loop model), {FILTER_HZ:g} Hz filter on raw estimates")
-print("| design (identified friction) | true F_T, last second [N] | speed p-p [mm/s] | free-space bias [N] "
-      "| free-space feed [mm/s] | peak [N] |\n|---|---|---|---|---|---|")
+stiction.append(f"admittance {real_admittance:.3e} m/(N s) (delay in the loop model), {FILTER_HZ:g} Hz filter on raw estimates")
+stiction += ["| design (identified friction) | true F_T, last second [N] | speed p-p [mm/s] | free-space bias [N] "
+             "| free-space feed [mm/s] | peak [N] |", "|---|---|---|---|---|---|"]
 runs = {}
 for name, observer in (("former: raw estimate", False), ("contact observer", True)):
     r = runs[name] = force_scenario.deburr(plant, ident.friction, model=ident.model(model), admittance=real_admittance,
                                            observer=observer)
-    print(f"| {name} | {r.true_band[0]:.2f}..{r.true_band[1]:.2f} | {r.speed_ripple:.2f} | {r.free_bias:+.2f} "
+    stiction.append(f"| {name} | {r.true_band[0]:.2f}..{r.true_band[1]:.2f} | {r.speed_ripple:.2f} | {r.free_bias:+.2f} "
           f"| {r.feed_speed:.1f} | {r.peak:.1f} |")
 obs = runs["contact observer"].observer
 k_line = obs.frozen[0]
-print(f"observer: K_t scale {obs.scale.scale:.4f} (+-{obs.scale.std:.4f}, data alone {obs.scale.raw:+.4f} +- "
+stiction.append(f"observer: K_t scale {obs.scale.scale:.4f} (+-{obs.scale.std:.4f}, data alone {obs.scale.raw:+.4f} +- "
       f"{obs.scale.raw_std:.4f}); contact line from {obs.line.samples} press samples, k = {k_line:.0f} N/m "
       f"(wall 2e4), its force at 20 N known to {obs.line_std():.2f} N; wall force at the commanded position "
       f"{runs['contact observer'].command_force:.2f} N")
+blocks["under stiction"] = "```\n" + "\n".join(stiction) + "\n```"
+print("\n" + "\n".join(stiction))
+
+if "--check-docs" in flags:
+    diffs = page_differences(PAGE, blocks)
+    print("\n".join(diffs) or f"{PAGE.name} shows what this example prints")
+    sys.exit(1 if diffs else 0)
+if "--write-docs" in flags:
+    update_page(PAGE, blocks, COMMAND)

@@ -19,6 +19,7 @@ EXAMPLES = [
     ["examples/pcmm_self_calibration.py"],
     ["examples/floating_nut_hexapod.py"],
     ["examples/floating_nut_calibration.py"],
+    ["examples/force_deburring.py"],
 ]
 
 
