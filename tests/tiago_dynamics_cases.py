@@ -11,7 +11,7 @@ import yaml
 from scipy.signal import butter, sosfiltfilt
 
 from robocal.dynamics.reduced_model import reduced_model
-from robocal.dynamics.inertial import parameter_vector, with_parameters
+from robocal.dynamics.motor_simulation import perturbed_model
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples/tiago_dynamics"
 CONFIG = EXAMPLE / "identify.yaml"
@@ -75,17 +75,6 @@ def trajectory(t: np.ndarray, model: pin.Model, seed: int, frequencies=(0.07, 0.
     return q, v, a
 
 
-def truth_model(model: pin.Model, seed: int) -> pin.Model:
-    """The CAD model with a random 0.1-0.3 kg point mass added to each body (a different, realisable truth)."""
-    rng = np.random.default_rng(seed)
-    params = parameter_vector(model).reshape(-1, 10).copy()
-    for p in params:
-        m, r = rng.uniform(0.1, 0.3), rng.normal(0, 0.05, 3)
-        inertia = m * (r @ r * np.eye(3) - np.outer(r, r))
-        p += np.r_[m, m * r, inertia[0, 0], inertia[0, 1], inertia[1, 1], inertia[0, 2], inertia[1, 2], inertia[2, 2]]
-    return with_parameters(model, params.reshape(-1))
-
-
 def synthetic_log(folder: Path, rows: int, train: tuple[float, float], validate: tuple[float, float],
                   seed: int = 0, noise: bool = True):
     """Write tiago_{position,velocity,effort}.csv into `folder` (the shipped log's first `rows` time
@@ -95,7 +84,7 @@ def synthetic_log(folder: Path, rows: int, train: tuple[float, float], validate:
     model = reduced_model(urdf_path(), JOINTS)
     t = shipped("position")[:rows, 0]
     q, v, a = trajectory(t, model, seed)
-    truth = truth_model(model, seed + 1)
+    truth = perturbed_model(model, seed + 1)
     data = truth.createData()
     tau = np.array([pin.rnea(truth, data, q[k], v[k], a[k]) for k in range(len(t))])[:, :5]
     in_train = (t >= train[0]) & (t < train[1])

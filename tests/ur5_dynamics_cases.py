@@ -6,8 +6,9 @@ import pinocchio as pin
 import yaml
 
 from robocal import load_example
+from robocal.dynamics.motor_simulation import perturbed_model
 from robocal.dynamics.reduced_model import reduced_model
-from tiago_dynamics_cases import trajectory, truth_model
+from tiago_dynamics_cases import trajectory
 
 COULOMB, VISCOUS, OFFSET = 1.0, 2.0, 0.3          # N m, N m s/rad, N m: the same on every joint
 EFFORT_NOISE, POSITION_NOISE = 0.05, 1e-4          # N m, rad
@@ -24,7 +25,7 @@ def write_ur5_log(folder, rows=6000, seed=0, spring=None, coulomb_pos_neg=None, 
     rng = np.random.default_rng(seed)
     t = np.concatenate([[0.0], np.cumsum(rng.uniform(0.0077, 0.0123, rows - 1))])
     q, v, a = trajectory(t, model, seed + 1)
-    truth = truth_model(model, seed + 2 if robot_seed is None else robot_seed)     # robot_seed: the same robot
+    truth = perturbed_model(model, seed + 2 if robot_seed is None else robot_seed)     # robot_seed: the same robot
     data = truth.createData()
     tau = np.array([pin.rnea(truth, data, q[k], v[k], a[k]) for k in range(rows)])
     train, validate = (2.0, 0.75 * t[-1]), (0.75 * t[-1], t[-1])
