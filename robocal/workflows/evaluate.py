@@ -3,7 +3,7 @@
 `evaluate_result(result_dir, csv, config)` rebuilds the config's problem on `csv`, sets the folder's
 parameter values, refits only the parameters the user marks as re-registered per session, and sorts the
 samples inside / outside the training joint ranges. `setup_for_data` builds a config's problem on another
-CSV file; `portable_config` writes a config that rebuilds the same model from an output folder.
+CSV file.
 See docs/validation.md.
 """
 from __future__ import annotations
@@ -13,7 +13,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import yaml
 
 from robocal.errors import InputError
 from robocal.estimation.calibrate import CalibrationOptions
@@ -42,15 +41,6 @@ def setup_for_data(config, csv: str | Path | None = None, parameters: dict | Non
         config = with_parameters(config, parameters)
     table = None if csv is None else read_csv((config.base_dir / csv).resolve())
     return build_setup(config, table=table)
-
-
-def portable_config(config, parameters: dict | None = None) -> bytes:
-    """The config's YAML with its file paths absolute and `parameters` replaced: stored in an output folder,
-    it rebuilds the same model from there (`robocal evaluate`)."""
-    config = config if isinstance(config, CalibrationConfig) else read_config(config)
-    if parameters:
-        config = with_parameters(config, parameters)
-    return yaml.safe_dump(config.to_dict(), sort_keys=False).encode()
 
 
 @dataclass
