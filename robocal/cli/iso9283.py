@@ -7,7 +7,7 @@ from pathlib import Path
 
 from robocal.errors import InputError
 from robocal.estimation.iso9283 import summary
-from robocal.workflows.calibrate import check_units
+from robocal.workflows.input_checks import check_inputs
 from robocal.workflows.iso9283 import check_iso9283, iso9283_from_setup
 from robocal.workflows.setup import load_config
 from robocal.io.text_files import write_atomic
@@ -32,7 +32,7 @@ def cmd_iso9283(args) -> int:
         raise InputError("file exists; pass --force to replace it", source=str(out))
     setup = load_config(args.config)
     check_iso9283(setup)
-    for note in check_units(setup, args.allow_failed):
+    for note in check_inputs(setup, args.allow_failed):
         print(f"robocal: {note}", file=sys.stderr)
     run = iso9283_from_setup(setup, args.parameters)
     if run.result is not None and not run.result.success:

@@ -2,7 +2,8 @@
 `robocal calibrate`, `robocal select`, a fleet's units and Python scripts share.
 
 In order: refuse an output folder that cannot be replaced and an ISO 9283 section that does not fit the
-data (before any fitting time is spent), refuse data whose spread says wrong units, register the nominal
+data (before any fitting time is spent), run the input checks (units, sigmas, repeated postures, quaternion order,
+joint limits: workflows/input_checks.py), register the nominal
 robot and fit, then write the folder atomically: result.json, summary.txt, the calibrated URDF (only for a
 fit that is not refused, unless allow_failed), config.yaml (the config with absolute paths, which `robocal
 evaluate` reads), scene.json (before = the registered nominal robot, after = the calibrated one), report.html
@@ -46,12 +47,6 @@ class CalibrationRun:
         return any(name.endswith(".urdf") for name in self.files)
 
 
-def check_units(setup: Setup, allow_failed: bool) -> list[str]:
-    """Every check of the input before a fit (workflows/input_checks.py: units, sigmas, repeated postures,
-    quaternion order, joint limits); refusals raise, notes (and, with allow_failed, findings) are returned."""
-    return check_inputs(setup, allow_failed)
-
-
 def sigma_ratio(result: CalibrationResult) -> float:
     """RMS of the weighted residual over the degrees of freedom: 1 when the data scatter as their sigmas say."""
     return float(np.sqrt(np.sum(result.solve.fun ** 2) / max(result.dof, 1)))
@@ -70,7 +65,7 @@ def run_calibration(setup: Setup, output_dir: str | Path | None = None, *, force
     check_replaceable(out, force)
     if setup.config.iso9283 is not None:
         check_iso9283(setup)                     # a mistake there costs no fitting time
-    warnings, notes = check_units(setup, allow_failed), []
+    warnings, notes = check_inputs(setup, allow_failed), []
     problem = setup.problem
     nominal = problem.params.copy()
     result = calibrate(problem, setup.options, progress=progress,

@@ -7,7 +7,7 @@ import numpy as np
 
 from robocal.errors import InputError
 from robocal.estimation.cross_validation import CVTable, cv_table, posture_folds, session_folds
-from robocal.workflows.calibrate import check_units
+from robocal.workflows.input_checks import check_inputs
 from robocal.workflows.setup import load_config
 
 
@@ -15,7 +15,7 @@ def run_cv(config: str | Path, folds: int | None = None, loo: bool = False, grou
            allow_failed: bool = False) -> tuple[CVTable, str, list[str]]:
     """(the CV table, how the folds were made, notes) of a config; its data pass the units check first."""
     setup = load_config(config)
-    notes = check_units(setup, allow_failed)
+    notes = check_inputs(setup, allow_failed)
     fold_list, label = make_folds(setup, folds, loo, group)
     return cv_table(setup.problem, fold_list, setup.options), label, notes
 

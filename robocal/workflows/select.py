@@ -11,7 +11,8 @@ from robocal.errors import InputError
 from robocal.estimation.calibrate import calibrate
 from robocal.estimation.cross_validation import cv_table, posture_folds
 from robocal.estimation.model_selection import Selection, closed_form_cv, ladder, one_standard_error
-from robocal.workflows.calibrate import CalibrationRun, check_units, run_calibration
+from robocal.workflows.calibrate import CalibrationRun, run_calibration
+from robocal.workflows.input_checks import check_inputs
 from robocal.workflows.config_read import read_config
 from robocal.workflows.cv import make_folds
 from robocal.workflows.evaluate import setup_for_data
@@ -26,7 +27,7 @@ def select_model(config, folds: int | None = None, loo: bool = False, group: str
     refitted folds instead. The data pass the input checks first (notes go into the selection's notes)."""
     config = read_config(config)
     base = build_setup(config)
-    notes = check_units(base, allow_failed)
+    notes = check_inputs(base, allow_failed)
     closed_form = base.problem.sessions is None and folds is None and not loo and not group
     if closed_form:
         n = len(base.problem.values)
