@@ -19,6 +19,7 @@ from robocal.io.tables import ANGLE_UNITS, LENGTH_UNITS
 from robocal.io.yaml_files import read_yaml
 from robocal.model.approach import ApproachSpec
 from robocal.model.parameters import COMPONENTS
+from robocal.residuals import REGISTRY
 from robocal.workflows.config_camera import camera_block_config
 from robocal.workflows.config_keys import FILLED_BY_CONFIG, TOP_KEYS, Cfg, check_keys
 from robocal.workflows.config_types import (CalibrationConfig, CandidatesConfig, DataConfig, FrameSpec,
@@ -47,14 +48,15 @@ def parse_config(raw, base_dir: str | Path, source: str) -> CalibrationConfig:
     data = data_config(root.child("data", {}), base_dir)
     out = root.child("output", {})
     out.require_mapping()
+    measurements = measurement_configs(root.child("measurements"), base_dir, data)
     return CalibrationConfig(
         source, base_dir, robot_config(root.child("robot"), base_dir), data,
-        parameters_config(root.child("parameters")), measurement_configs(root.child("measurements"), base_dir, data),
+        parameters_config(root.child("parameters")), measurements,
         solver_options(root.child("solver")),
         OutputConfig((base_dir / out.get("dir", "robocal-output", types=str)).resolve(),
                      bool(out.get("report", True, types=bool))),
         simulation_config(root.child("simulation")) if "simulation" in raw else None,
-        plan_config(root.child("plan", {}), base_dir, data) if "plan" in raw else None,
+        plan_config(root.child("plan", {}), base_dir, data, measured_kinds(measurements)) if "plan" in raw else None,
         iso9283_config(root.child("iso9283")) if "iso9283" in raw else None)
 
 
@@ -284,7 +286,14 @@ def simulation_config(sim: Cfg) -> SimulationConfig:
                             spans.number("rotation", np.radians(0.2)), {str(k): float(v) for k, v in truth.items()})
 
 
-def plan_config(plan: Cfg, base_dir: Path, data: DataConfig) -> PlanConfig:
+def measured_kinds(measurements) -> frozenset[str] | None:
+    """The quantities ('length', 'angle') the rows of every block hold together; None when a type does not say
+    (robocal plan's noise replaces every block's sigma, so a labelled one must measure what they all measure)."""
+    kinds = [row_kinds(REGISTRY[m.type]) for m in measurements]
+    return None if not kinds or any(k is None for k in kinds) else frozenset().union(*kinds)
+
+
+def plan_config(plan: Cfg, base_dir: Path, data: DataConfig, kinds: frozenset[str] | None = None) -> PlanConfig:
     plan.require_mapping()
     cand = plan.child("candidates", {})
     cand.require_mapping()
@@ -304,7 +313,7 @@ def plan_config(plan: Cfg, base_dir: Path, data: DataConfig) -> PlanConfig:
     return PlanConfig(plan.get("frame", types=str), plan.get("N", 30, types=int), plan.get("criterion", "D", types=str),
                       plan.get("seed", 0, types=int),
                       None if noise is None else sigma_argument(noise, Cfg({"sigma": noise}, "plan.noise", plan.source),
-                                                                data.units),
+                                                                data.units, kinds),
                       candidates, MeasurementVolume.from_dict(plan.get("volume"), plan.source, "plan.volume"),
                       plan.get("validation", 200, types=int), None if curve is None else tuple(int(c) for c in curve),
                       (base_dir / out.get("dir", "robocal-plan", types=str)).resolve())
