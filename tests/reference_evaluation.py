@@ -1,11 +1,13 @@
 """The plain per-sample evaluation, kept as the reference the batched path is compared with.
 
 This is Problem.evaluate as it was before the batched path (tests/test_batched_evaluation.py): one
-SampleState per sample, one Term per measurement, Jacobian rows stacked with vstack.
+SampleState per sample, one Term per measurement, Jacobian rows stacked with vstack; a session's measurement-frame
+correction enters its six columns through the same formula as the per-sample path of Problem.evaluate.
 """
 import numpy as np
 
 from robocal.estimation.problem import Evaluation
+from robocal.estimation.sessions import correction_jacobian, exp_jacobians
 from robocal.residuals.prior import prior_rows
 
 
@@ -14,6 +16,9 @@ def reference_evaluate(problem, jacobian: bool = True) -> Evaluation:
     states = problem.states()
     col = problem.params.column_map()
     n_free = len(problem.params.free_names)
+    # each session's measurement-frame correction: its six columns, as the problem names them
+    session_cols = problem.session_columns(col)
+    Jexp = exp_jacobians(problem.sessions, problem.params) if session_cols else None
     rs, raws, Js, groups = [], [], [], []
     gid = 0
     for res in problem.residuals:
@@ -32,6 +37,12 @@ def reference_evaluate(problem, jacobian: bool = True) -> Evaluation:
                 Jt = np.zeros((res.dim, n_free))
                 for i, frame, D in t.frames:
                     Jt += D @ states[i].frame_parameter_jacobian(frame)
+                    if session_cols:
+                        s = int(problem.sessions.of_sample[i])
+                        cj = correction_jacobian(D, states.raw[i].pose(frame), Jexp[s])
+                        for comp, pairs in enumerate(session_cols[s]):
+                            for c, w in pairs:
+                                Jt[:, c] += w * cj[:, comp]
                 for j, c, w in aux_cols:
                     Jt[:, c] += w * t.aux[:, j]
                 Js.append((Jt * scale[:, None])[keep])

@@ -189,3 +189,23 @@ def test_unordered_and_repeated_samples_match_the_reference():
     rows = problem.blocks[-1].rows if problem.blocks[-1].name == "unordered" else problem.blocks[-2].rows
     assert _relative(ev.r[rows], ref.r[rows]) < RTOL
     assert _relative(ev.J[rows], ref.J[rows]) < RTOL
+
+
+@pytest.mark.parametrize("load_kinds", [("compliance", "backlash"), ("tilt",)])
+def test_session_frame_columns_match_the_reference(load_kinds):
+    """Three sessions, each after the first with its own measurement-frame correction away from zero: the
+    batched path (and, with tilt, the per-sample path) must give the reference's rows in those columns too."""
+    from robocal.estimation.sessions import Sessions
+    rng = np.random.default_rng(21)
+    base = _problem(rng, load_kinds)
+    sessions = Sessions(("a", "b", "c"), np.arange(len(base.values)) % 3)
+    problem = Problem(base.robot, base.params, base.joint_names, base.values, base.residuals,
+                      directions=base.directions, sessions=sessions)
+    names = [n for n in problem.params.names if "@" in n]
+    assert len(names) == 12
+    for n in names:
+        problem.params[n].value = rng.normal(0, 0.05)
+    ev, ref = problem.evaluate(), reference_evaluate(problem)
+    cols = [problem.params.free_names.index(n) for n in names]
+    assert np.abs(ref.J[:, cols]).max() > 0.1       # the columns are there and carry the corrections
+    assert _relative(ev.r, ref.r) < RTOL and _relative(ev.J, ref.J) < RTOL
