@@ -64,3 +64,21 @@ def test_config_mjcf_errors_name_the_file(tmp_path):
     with pytest.raises(InputError, match="names body 'rocker' in body2, which is not in the model") as info:
         load_config(folder / "fourbar_calibrate.yaml")
     assert info.value.source == str(folder / "fourbar.xml") and info.value.row is not None
+
+
+def test_presets_over_passive_joints(tmp_path):
+    """`preset: full` over a four-bar whose coupler and rocker joints are solved by its loop: offsets only
+    on the read joint (a passive joint's zero is its placement's rz, a convention of the loop), and the fit
+    runs; compliance named on a passive joint is refused with the key."""
+    folder = copy_example(tmp_path, "fourbar_calibrate.yaml", "fourbar.xml", "fourbar_points.csv")
+    config = folder / "fourbar_calibrate.yaml"
+    text = config.read_text()
+    config.write_text(text.replace("preset: placements ", "preset: full "))
+    setup = load_config(config)
+    offsets = [p.name for p in setup.problem.params if p.kind == "joint_offset"]
+    assert offsets == ["crank.offset"]
+    assert main(["calibrate", str(config), "-q", "--no-report", "-o", str(tmp_path / "full")]) == 0
+    config.write_text(text.replace("preset: placements ", "preset: placements\n  compliance: [rocker]\n "))
+    with pytest.raises(InputError) as err:
+        load_config(config)
+    assert err.value.field == "parameters.compliance" and "'rocker'" in str(err.value)

@@ -239,7 +239,8 @@ def offset_parameter(joint: str, unit: str = "rad") -> Parameter:
 
 def robot_parameters(robot, joints: list[str], preset: str = "full", frames: dict[str, tuple] | None = None,
                      base: tuple | bool = False, compliance: bool | list[str] = False,
-                     backlash: bool | list[str] = False, tilt: bool | list[str] = False) -> ParameterSet:
+                     backlash: bool | list[str] = False, tilt: bool | list[str] = False,
+                     read: list[str] | None = None) -> ParameterSet:
     """Parameters for a preset over `joints`, plus chosen frame and base components.
 
     preset: "offsets" (one zero offset per joint), "full" (offset + 6 placement components per joint),
@@ -249,6 +250,9 @@ def robot_parameters(robot, joints: list[str], preset: str = "full", frames: dic
     backlash: the same for a backlash parameter (the samples then need approach directions);
     tilt: the same for a tilt compliance (bending across the joint axis under the gravity moment).
     Joints of a prismatic kind get their offset in metres.
+    read: the joints the data read (None: all of `joints`). A joint not read (a closed chain's passive joint,
+    solved by its loops) has no zero to offset, nor a load reading to comply or play with: the presets and
+    `True` skip it, and naming it for compliance or backlash is an error.
     """
     ps = ParameterSet()
     if preset not in ("offsets", "full", "placements", "none"):
@@ -259,19 +263,26 @@ def robot_parameters(robot, joints: list[str], preset: str = "full", frames: dic
         comps = COMPONENTS if base is True else tuple(base)
         for p in placement_parameters("base", "base", comps, prefix="base"):
             ps.add(p)
+    is_read = (lambda j: True) if read is None else set(read).__contains__
+    for kind, chosen in (("compliance", compliance), ("backlash", backlash)):
+        unread = [j for j in (chosen if isinstance(chosen, (list, tuple)) else []) if not is_read(j)]
+        if unread:
+            raise InputError(f"{kind} of '{unread[0]}': the data do not read that joint (a closed chain's passive "
+                             f"joint is solved by its loops), so there is no reading to offset by a load",
+                             field=kind)
     for j in joints:
         jm = robot.model.joints[robot.joint_id(j)]
         prismatic = jm.shortname().startswith("JointModelP")
-        if preset in ("offsets", "full"):
+        if preset in ("offsets", "full") and is_read(j):
             ps.add(offset_parameter(j, "m" if prismatic else "rad"))
         if preset in ("full", "placements"):
             for p in placement_parameters("joint_placement", j):
                 ps.add(p)
-    for j in (joints if compliance is True else list(compliance or [])):
+    for j in ([j for j in joints if is_read(j)] if compliance is True else list(compliance or [])):
         jm = robot.model.joints[robot.joint_id(j)]
         unit = "m/N" if jm.shortname().startswith("JointModelP") else "rad/(N m)"
         ps.add(Parameter(f"{j}.compliance", "joint_compliance", j, 0, unit=unit))
-    for j in (joints if backlash is True else list(backlash or [])):
+    for j in ([j for j in joints if is_read(j)] if backlash is True else list(backlash or [])):
         jm = robot.model.joints[robot.joint_id(j)]
         unit = "m" if jm.shortname().startswith("JointModelP") else "rad"
         ps.add(Parameter(f"{j}.backlash", "joint_backlash", j, 0, unit=unit))

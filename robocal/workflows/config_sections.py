@@ -27,15 +27,17 @@ def joint_values(robot, tab: Table, joint_cols: dict[str, str], rows, joint_unit
     return np.column_stack(cols) if cols else np.zeros((len(rows), 0))
 
 
-def parameter_set(pc: ParametersConfig, robot, chain: list[str], source: str) -> ParameterSet:
-    """The parameter set of the `parameters:` section; chain: the joints moving a measured frame."""
+def parameter_set(pc: ParametersConfig, robot, chain: list[str], source: str,
+                  read: list[str] | None = None) -> ParameterSet:
+    """The parameter set of the `parameters:` section; chain: the joints moving a measured frame; read: the
+    joints the data read (a closed chain's passive joints get no offset, compliance or backlash)."""
     joints = list(pc.joints) if pc.joints is not None else chain
     frames = {name: True if v is True else list(v) for name, v in pc.frames.items() if v}
     kind = [v if isinstance(v, bool) else list(v) for v in (pc.base, pc.compliance, pc.backlash, pc.tilt)]
     try:
-        return robot_parameters(robot, joints, pc.preset, frames, *kind)
+        return robot_parameters(robot, joints, pc.preset, frames, *kind, read=read)
     except InputError as exc:
-        raise InputError(exc.reason, source=source, field="parameters") from None
+        raise InputError(exc.reason, source=source, field="parameters" + (f".{exc.field}" if exc.field else "")) from None
 
 
 def apply_parameter_overrides(pc: ParametersConfig, params: ParameterSet, source: str) -> None:

@@ -143,7 +143,7 @@ def build_setup(config: CalibrationConfig, *, table: Table | None = None,
     # a camera block's frame placement is free (its hand-eye), unless the parameters section says otherwise
     pc = dataclasses.replace(config.parameters, frames={**{c.frame: True for c in cameras.values()},
                                                         **config.parameters.frames})
-    params = parameter_set(pc, robot, chain, source)
+    params = parameter_set(pc, robot, chain, source, list(joint_cols))
     for c in cameras.values():
         params.set_values({n: v for n, v in c.start.items() if n in params})    # the closed form's placement
     directions = approach_directions(data.approach, params, robot, tables, samples, joint_cols, data.joint_units,
