@@ -129,3 +129,23 @@ def test_force_filter_matches_scipy_and_its_own_state_space():
     assert np.allclose(out, signal.sosfilt(filt.sos, x, axis=0), atol=1e-12)
     with pytest.raises(robocal.errors.InputError):
         ForceFilter(200.0, TS)                          # above Nyquist (125 Hz)
+
+
+@pytest.mark.parametrize("delay", [0, 1, 2])
+def test_gain_margin_agrees_with_the_closed_loop_eigenvalues(ur5, delay):
+    """With a sensor delay the open loop's phase passes -180 deg and then -540 deg towards Nyquist, where |L|
+    is largest: the gain margin must come from that crossing too. Over an admittance grid, "gain margin > 1"
+    and "closed-loop eigenvalues inside the unit circle" must agree (the grid avoids the boundary by a factor
+    of 1.05, the margin's interpolation error being far below that)."""
+    robot, _ = ur5
+    loop = tangent_loop(robot.model, Q0, robot.frame_id("tool0"), servo_gains(robot.model, Q0), U, FRICTION, TS,
+                        delay=delay)
+    both = 0
+    for k in (1e3, 2e4, 1e5):
+        for a in np.geomspace(5e-5, 5e-3, 15):
+            m = margins(loop, k, a, points=1000)
+            if abs(np.log(m.gain_margin)) < np.log(1.05):
+                continue
+            assert (m.gain_margin > 1) == m.stable, (k, a, m)
+            both += m.stable
+    assert 0 < both < 45                     # the grid spans stable and unstable loops

@@ -248,13 +248,24 @@ def _margins_of(f: np.ndarray, L: np.ndarray) -> tuple[float, float, float, floa
         t = -np.log(mag[i]) / (np.log(mag[i + 1]) - np.log(mag[i]))
         pm = 180.0 + np.degrees(phase[i] + t * (phase[i + 1] - phase[i]))
         fc = float(f[i] * (f[i + 1] / f[i]) ** t)
-    below = np.nonzero((phase[:-1] > -np.pi) & (phase[1:] <= -np.pi))[0]
+    # the loop meets the negative real axis wherever the phase passes -180 deg + k 360 deg (a delay's phase
+    # keeps falling past -540 deg towards Nyquist); the gain that first reaches -1 is set by the largest |L|
+    # there. The grid's last point sits just below Nyquist, where L is real: a phase within 1e-6 rad of an
+    # odd multiple of pi there counts as a crossing too.
+    turn = np.floor((phase + np.pi) / (2 * np.pi))
     gm, fp = np.inf, float(f[-1])
-    if below.size:
-        i = below[0]
-        t = (-np.pi - phase[i]) / (phase[i + 1] - phase[i])
-        gm = 1.0 / float(np.exp(np.log(mag[i]) + t * (np.log(mag[i + 1]) - np.log(mag[i]))))
-        fp = float(f[i] + t * (f[i + 1] - f[i]))
+    crossings = []
+    for i in np.nonzero(turn[1:] != turn[:-1])[0]:
+        target = -np.pi + 2 * np.pi * max(turn[i], turn[i + 1])
+        t = (target - phase[i]) / (phase[i + 1] - phase[i])
+        crossings.append((float(np.exp(np.log(mag[i]) + t * (np.log(mag[i + 1]) - np.log(mag[i])))),
+                          float(f[i] + t * (f[i + 1] - f[i]))))
+    odd = np.round((phase[-1] + np.pi) / (2 * np.pi))
+    if abs(phase[-1] + np.pi - 2 * np.pi * odd) < 1e-6 and not (crossings and crossings[-1][1] == f[-1]):
+        crossings.append((float(mag[-1]), float(f[-1])))
+    if crossings:
+        top, fp = max(crossings)
+        gm = 1.0 / top
     return float(gm), float(pm), float(fc), fp
 
 
