@@ -66,3 +66,16 @@ def test_per_sample_states_stay_valid_around_a_batched_pass():
     fresh = problem.states()
     assert np.array_equal(states[5].pose("tcp").homogeneous, fresh[5].pose("tcp").homogeneous)
     assert np.array_equal(states[5].frame_parameter_jacobian("tcp"), fresh[5].frame_parameter_jacobian("tcp"))
+
+
+def test_tied_and_fixed_tilts_match_the_reference():
+    """Two tilts tied to a third (one free column reached from three joints, with coefficients) and a fixed tilt
+    away from zero (it tilts the placements but has no column)."""
+    problem = _problem(np.random.default_rng(17), ("tilt",))
+    problem.params.tie("wrist_1_joint.tilt", {"elbow_joint.tilt": 0.5})
+    problem.params.tie("wrist_2_joint.tilt", {"elbow_joint.tilt": -1.0})
+    problem.params.fix("shoulder_lift_joint.tilt")
+    assert problem.params["shoulder_lift_joint.tilt"].value != 0.0
+    ev, ref = problem.evaluate(), reference_evaluate(problem)
+    assert _relative(ev.r, ref.r) < RTOL and _relative(ev.J, ref.J) < RTOL
+    assert np.abs(ev.J[:, problem.params.free_names.index("elbow_joint.tilt")]).max() > 0.0

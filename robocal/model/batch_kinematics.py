@@ -175,8 +175,9 @@ class BatchKinematics:
                 out[row] = regressor(model, data, jid, LOCAL)
         else:       # each sample's tilted placements first, in the problem's scratch copy of the model
             model, apply = self.tilted_model(), self.tilts.apply
+            placements = model.jointPlacements
             for row, (i, qi) in enumerate(zip(samples, q)):
-                apply(model, int(i))
+                apply(placements, i)
                 fk(model, data, qi)
                 out[row] = regressor(model, data, jid, LOCAL)
         if out.nbytes <= CACHE_BYTES:

@@ -57,15 +57,14 @@ class TiltArrays:
         base = [tilts.placements[jid] for jid in self.joints]
         self.R = np.einsum("kij,nkjl->nkil", np.array([M.rotation for M in base]), self.E)
         self.p = np.array([M.translation for M in base])
-        self._se3: dict[int, list] = {}
 
-    def apply(self, model, sample: int) -> None:
-        """Set the tilted joints' placements of `model` (the ModelState's kin_model) to those of one sample."""
-        hit = self._se3.get(sample)
-        if hit is None:
-            hit = self._se3[sample] = [pin.SE3(self.R[sample, k], self.p[k]) for k in range(len(self.joints))]
-        for jid, M in zip(self.joints, hit):
-            model.jointPlacements[jid] = M
+    def apply(self, placements, sample: int) -> None:
+        """Set the tilted joints' rotations in `placements` (a model's jointPlacements, its joints' translations
+        already this ModelState's: BatchKinematics.tilted_model) to those of one sample. Pinocchio 4.1's vector
+        hands out references: the rotation is written in place, no SE3 built per sample and joint."""
+        R = self.R[sample]
+        for k, jid in enumerate(self.joints):
+            placements[jid].rotation = R[k]
 
     def root_placement(self, jid: int, samples: np.ndarray):
         """(R (n, 3, 3), p (3,)) of joint jid's tilted placement at the samples, or None if it does not tilt."""
@@ -77,20 +76,25 @@ class TiltArrays:
     def add_terms(self, parts, reg: np.ndarray, samples: np.ndarray, P_joint: np.ndarray, supports) -> None:
         """JointTilts.jacobian's terms for the frame whose parent joint's regressors are `reg` (n, 6, 6 n_joints),
         added to `parts` (JointJacobianParts): the tilt columns, and the placement columns carried through
-        exp(-tilt) (placement errors act before the tilt) less what the twist map already gave them."""
-        for k, jid in enumerate(self.joints):
-            if jid not in supports:         # no support of the frame: its regressor columns are zero
-                continue
-            rows = slice(6 * (jid - 1), 6 * jid)
-            Rj = reg[:, :, rows]
-            Pj = P_joint[rows]
-            cols = np.flatnonzero(np.any(Pj != 0.0, axis=0))
-            if len(cols):
-                B = np.swapaxes(self.E[samples, k], -1, -2) - np.eye(3)     # Ad(exp(-tilt)) - I: diag(B, B)
-                X = np.concatenate([Rj[:, :, :3] @ B, Rj[:, :, 3:] @ B], axis=2)
-                n = len(X)
-                parts.add(contiguous(cols), (X.reshape(n * 6, 6) @ Pj[:, cols]).reshape(n, 6, len(cols)))
-            if self.columns[k]:
-                v = np.einsum("nij,nj->ni", Rj[:, :, 3:], self.d_tilt[samples, k])[:, :, None]
+        exp(-tilt) (placement errors act before the tilt) less what the twist map already gave them. Every tilted
+        joint that supports the frame at once (the others' regressor columns are zero)."""
+        ks = [k for k, jid in enumerate(self.joints) if jid in supports]
+        if not ks:
+            return
+        n, nk = len(samples), len(ks)
+        rows = (6 * (np.array([self.joints[k] for k in ks]) - 1)[:, None] + np.arange(6)).ravel()
+        Rt = reg[:, :, rows].reshape(n, 6, nk, 2, 3)          # each joint's columns: translation, rotation half
+        P = P_joint[rows]
+        cols = np.flatnonzero(np.any(P != 0.0, axis=0))
+        if len(cols):
+            B = np.swapaxes(self.E[samples][:, ks], -1, -2) - np.eye(3)      # Ad(exp(-tilt)) - I = diag(B, B)
+            X = np.einsum("nikaj,nkjl->nikal", Rt, B).reshape(n * 6, 6 * nk)
+            parts.add(contiguous(cols), (X @ P[:, cols]).reshape(n, 6, len(cols)))
+        tilt_cols = sorted({c for k in ks for c, _ in self.columns[k]})
+        if tilt_cols:
+            W = np.zeros((nk, len(tilt_cols)))        # tilted joint -> its free column(s), tie coefficients
+            for i, k in enumerate(ks):
                 for c, w in self.columns[k]:
-                    parts.add(slice(c, c + 1), w * v)
+                    W[i, tilt_cols.index(c)] += w
+            v = np.einsum("nikj,nkj->nik", Rt[:, :, :, 1, :], self.d_tilt[samples][:, ks])
+            parts.add(contiguous(np.array(tilt_cols)), v @ W)
