@@ -16,7 +16,8 @@ from robocal.estimation.calibrate import calibrate
 from robocal.estimation.problem import Problem
 from robocal.model.batch_kinematics import supports_batch
 from robocal.model.parameters import robot_parameters
-from robocal.residuals import BallBarResidual, PlaneResidual, PointResidual, PoseResidual, SphereResidual
+from robocal.residuals import (BallBarResidual, PlaneResidual, PointResidual, PoseResidual, RigidPointsResidual,
+                               SphereResidual)
 from robocal.design.simulate import simulate_measurements
 
 RTOL = 1e-10
@@ -27,7 +28,7 @@ def _quaternions(rng, n):
 
 
 def _problem(rng, load_kinds=("compliance", "backlash"), n=40):
-    """UR5 with a tool frame; every geometric kind free plus the chosen load-dependent kinds; the five
+    """UR5 with a tool frame; every geometric kind free plus the chosen load-dependent kinds; the six
     batched residual types, each on its own samples (a pose term and a point term share some)."""
     robot = load_example("ur5")
     robot.add_frame("tcp", "tool0", pin.SE3(pin.rpy.rpyToMatrix(0.1, -0.2, 0.3), np.array([0.01, 0.02, 0.1])))
@@ -47,6 +48,8 @@ def _problem(rng, load_kinds=("compliance", "backlash"), n=40):
         SphereResidual("ball", "tcp", s[28:34], centre=(0.3, 0.2, 0.1), radius=0.0125, point=(0, 0.01, 0.01)),
         BallBarResidual("bar", "tcp", s[34:], rng.uniform(0.3, 0.5, n - 34), centre=(0.2, 0.3, 0.1), offset=0.15,
                         point=(0, 0, 0.02)),
+        RigidPointsResidual("cluster", "tool0", s[5:20], rng.normal(0.4, 0.2, (15, 9)),
+                            points=[(0.01, 0.02, 0.03), (-0.02, 0.01, 0.0), (0.0, -0.03, 0.05)], points_unknown=True),
     ]
     residuals[0].weights[5] = 0.0   # a dropped row keeps the row bookkeeping honest
     directions = rng.integers(-1, 2, values.shape).astype(float)
@@ -63,7 +66,7 @@ def _relative(a, b):
 def test_batched_residuals_and_jacobian_match_the_per_sample_reference(load_kinds):
     problem = _problem(np.random.default_rng(11), load_kinds)
     batched = supports_batch(problem.model_state())
-    assert batched == ("tilt" not in load_kinds)     # tilts move placements per sample: per-sample path
+    assert batched      # tilts too: their placements set per sample before Pinocchio runs
     ev, ref = problem.evaluate(), reference_evaluate(problem)
     assert ev.J.shape == ref.J.shape and ev.J.shape[1] == len(problem.params.free_names)
     np.testing.assert_array_equal(ev.group, ref.group)

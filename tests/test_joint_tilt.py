@@ -10,6 +10,7 @@ import pytest
 
 from robocal import load_example
 from robocal.model.urdf_export import calibrated_urdf
+from robocal.model.batch_kinematics import supports_batch
 from robocal.model.kinematics import ModelState
 from robocal.model.parameters import robot_parameters
 from robocal.estimation.problem import Problem
@@ -71,6 +72,7 @@ def test_problem_jacobian_with_tilt_and_placements_matches_finite_differences():
     for p in params:                       # away from zero, where every term of the model is active
         p.value = rng.normal(0, 0.01)
     problem = _pose_problem(robot, params, joints, rng.uniform(-2, 2, (5, len(joints))))
+    assert supports_batch(problem.model_state())       # the batched pass (joint_tilt_arrays) is what is checked
     assert_problem_jacobian(problem)
     J = problem.evaluate().J
     assert np.abs(J[:, params.free_names.index("shoulder_lift_joint.tilt")]).max() > 1.0   # not silently zero

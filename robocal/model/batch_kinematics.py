@@ -12,8 +12,9 @@ kinematic regressor. Everything else is whole-array numpy over the samples:
   the universe, at the identity).
 
 The parameter Jacobian then follows SampleState's formula term by term (offsets, compliance, backlash,
-placements through the regressor, frame and base placements). Robots with loops, tilt parameters or other
-joint kinds keep the per-sample path (`supports_batch`).
+placements through the regressor, joint tilts (robocal.model.joint_tilt_arrays: their placements set per
+sample before Pinocchio runs), frame and base placements). Robots with loops or other joint kinds keep the
+per-sample path (`supports_batch`).
 """
 from __future__ import annotations
 
@@ -23,6 +24,8 @@ import numpy as np
 import pinocchio as pin
 
 from robocal.model.joint_jacobian_parts import GemmBlocks, JointJacobianParts
+from robocal.model.joint_tilt import perpendicular_moments
+from robocal.model.joint_tilt_arrays import TiltArrays
 from robocal.model.lie_arrays import adjoint_inverse, transpose
 from robocal.model.robot import ConfigurationMap
 from robocal.model.state_layout import contiguous
@@ -34,13 +37,13 @@ CONSTANT_SUBSPACE = {"JointModelRX", "JointModelRY", "JointModelRZ", "JointModel
 
 
 def supports_batch(ms) -> bool:
-    """Whether a ModelState's samples can be evaluated here (serial, no tilts, plain one-dof joints)."""
-    if ms.loops is not None or ms.tilts is not None:
+    """Whether a ModelState's samples can be evaluated here (serial, plain one-dof joints)."""
+    if ms.loops is not None:
         return False
     memo = ms.robot.__dict__.setdefault("_constant_subspace", {})    # joint kinds never change: once per model
-    key = ms.kin_model.njoints
+    key = ms.model.njoints
     if key not in memo:
-        memo[key] = all(j.shortname() in CONSTANT_SUBSPACE for j in list(ms.kin_model.joints)[1:])
+        memo[key] = all(j.shortname() in CONSTANT_SUBSPACE for j in list(ms.model.joints)[1:])
     return memo[key]
 
 
@@ -71,7 +74,8 @@ class FrameArrays:
 
 class SampleConstants:
     """What does not change with the parameters, computed once per problem: each sample's gravity torque
-    at its readings (the compliance load) and the joints' motion subspaces."""
+    at its readings (the compliance load), the tilted joints' gravity moments (`tilt_moments`) and the joints'
+    motion subspaces."""
 
     def __init__(self, robot, joint_names, values: np.ndarray, needs_gravity: bool, v_index: np.ndarray):
         self.values = values.copy()
@@ -89,10 +93,23 @@ class SampleConstants:
             if jm.nv:
                 J = pin.getJointJacobian(model, data, jid, LOCAL)
                 self.subspace[jm.idx_v:jm.idx_v + jm.nv] = J[:, jm.idx_v:jm.idx_v + jm.nv].T
-        self.regressors: dict = {}                  # joint id -> (samples, q, joint_key, regressors) of the last pass
+        self.regressors: dict = {}      # joint id -> (samples, q, joint_key, regressors, derived, tilts) of the last pass
         self.offset_map = None          # (P_offset, its twist-map rows, any non-zero) of the last layout
         self.gemm_plans: dict = {}      # joint id -> (layout, its regressor's columns that can be non-zero, GemmBlocks)
         self.data = data                # Pinocchio workspace of the batched passes (any model of this structure)
+        self._moments: dict = {}        # tilted joints -> (n, k, 3) gravity moments
+        self.scratch = None             # a model copy whose tilted joints' placements move per sample
+
+    def tilt_moments(self, robot, tilts) -> np.ndarray:
+        """(n, n tilted joints, 3): the perpendicular gravity moments of `tilts` (a JointTilts) at every sample's
+        readings, with the nominal model (robocal.model.joint_tilt), worked out once per set of joints."""
+        joints = tuple(jid for jid, _, _ in tilts.entries)
+        hit = self._moments.get(joints)
+        if hit is None:
+            model, data = robot.model, tilts.gdata
+            hit = self._moments[joints] = np.array([perpendicular_moments(model, data, q, list(joints), tilts.axes)
+                                                    for q in self.configurations(self.values)])
+        return hit
 
     def matches(self, values: np.ndarray) -> bool:
         return self.values.shape == values.shape and np.array_equal(self.values, values)
@@ -120,7 +137,7 @@ class BatchKinematics:
 
     def __init__(self, ms, constants: SampleConstants, values: np.ndarray, directions: np.ndarray | None):
         self.ms, self.constants = ms, constants
-        self.model = ms.kin_model
+        self.model = ms.model
         link = values if directions is None else values + ms.backlash * directions
         link = link + ms.offsets
         if constants.tau is not None:
@@ -128,6 +145,8 @@ class BatchKinematics:
         self.q = constants.configurations(link)
         self.directions = directions
         self._twist_map, self._moves_joints = None, False
+        self.tilts = (TiltArrays(ms.tilts, constants.tilt_moments(ms.robot, ms.tilts)) if ms.tilts is not None
+                      else None)
 
     def regressors(self, jid: int, samples: np.ndarray) -> np.ndarray:
         """(n, 6, 6 n_joints) LOCAL kinematic regressors of joint jid's frame at the samples, cached while the
@@ -137,9 +156,10 @@ class BatchKinematics:
         q = self.q[samples]
         model = self.model
         robot, placements = self.ms.joint_key        # the joint placements, as the values that set them
+        tilt_key = None if self.tilts is None else (self.tilts.joints, self.tilts.key)
         hit = self.constants.regressors.get(jid)
         if (hit is not None and hit[2][0] is robot and np.array_equal(hit[0], samples) and
-                np.array_equal(hit[1], q) and np.array_equal(hit[2][1], placements)):
+                np.array_equal(hit[1], q) and np.array_equal(hit[2][1], placements) and hit[5] == tilt_key):
             return hit[3]
         # own Data (the per-sample path's cached state stays valid), kept between passes: a Data depends on
         # the model's structure only, which every calibrated copy shares
@@ -149,12 +169,31 @@ class BatchKinematics:
         shape = (len(samples), 6, 6 * (model.njoints - 1))
         out = hit[3] if hit is not None and hit[3].shape == shape else np.empty(shape)   # the old entry's memory
         fk, regressor = pin.forwardKinematics, pin.computeJointKinematicRegressor
-        for row, qi in enumerate(q):
-            fk(model, data, qi)
-            out[row] = regressor(model, data, jid, LOCAL)
+        if self.tilts is None:
+            for row, qi in enumerate(q):
+                fk(model, data, qi)
+                out[row] = regressor(model, data, jid, LOCAL)
+        else:       # each sample's tilted placements first, in the problem's scratch copy of the model
+            model, apply = self.tilted_model(), self.tilts.apply
+            placements = model.jointPlacements
+            for row, (i, qi) in enumerate(zip(samples, q)):
+                apply(placements, i)
+                fk(model, data, qi)
+                out[row] = regressor(model, data, jid, LOCAL)
         if out.nbytes <= CACHE_BYTES:
-            self.constants.regressors[jid] = (samples.copy(), q, self.ms.joint_key, out, {})
+            self.constants.regressors[jid] = (samples.copy(), q, self.ms.joint_key, out, {}, tilt_key)
         return out
+
+    def tilted_model(self):
+        """The problem's scratch copy of the model (SampleConstants.scratch) set to this model's joint placements
+        (each call: another pass may have used it since); the tilted joints' are then set per sample. A copy of
+        the model per pass would cost more than the pass's forward kinematics."""
+        scratch = self.constants.scratch
+        if scratch is None or scratch.njoints != self.model.njoints:
+            scratch = self.constants.scratch = self.model.copy()
+        for jid in range(1, self.model.njoints):
+            scratch.jointPlacements[jid] = self.model.jointPlacements[jid]
+        return scratch
 
     def derived(self, jid: int, reg: np.ndarray) -> dict:
         """What is worked out from joint jid's regressors `reg` (its poses, their supporting columns, ...), kept
@@ -162,9 +201,9 @@ class BatchKinematics:
         hit = self.constants.regressors.get(jid)
         return hit[4] if hit is not None and hit[3] is reg else {}
 
-    def joint_poses(self, jid: int, reg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(R (n, 3, 3), p (n, 3)): joint jid's poses on the robot from its regressors `reg`, kept with them (the
-        same key decides both: a pass that reuses the regressors reuses the poses)."""
+    def joint_poses(self, jid: int, reg: np.ndarray, samples: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(R (n, 3, 3), p (n, 3)): joint jid's poses on the robot from its regressors `reg` at the samples, kept
+        with them (the same key decides both: a pass that reuses the regressors reuses the poses)."""
         kept = self.derived(jid, reg)
         if "poses" in kept:
             return kept["poses"]
@@ -174,9 +213,14 @@ class BatchKinematics:
         RX, B = block[:, 3:, 3:], block[:, :3, 3:]         # B = [pX]x RX: pX's entries from three rows
         pX = np.stack([np.einsum("nk,nk->n", B[:, 2], RX[:, 1]), np.einsum("nk,nk->n", B[:, 0], RX[:, 2]),
                        np.einsum("nk,nk->n", B[:, 1], RX[:, 0])], axis=-1)
-        root = model.jointPlacements[j0]
-        Ri = root.rotation @ transpose(RX)
-        pi = root.translation - np.einsum("nij,nj->ni", Ri, pX)
+        tilted = None if self.tilts is None else self.tilts.root_placement(j0, samples)
+        if tilted is None:
+            root = model.jointPlacements[j0]
+            Ri = root.rotation @ transpose(RX)
+            pi = root.translation - np.einsum("nij,nj->ni", Ri, pX)
+        else:                                   # the root joint tilts: its placement differs per sample
+            Ri = tilted[0] @ transpose(RX)
+            pi = tilted[1] - np.einsum("nij,nj->ni", Ri, pX)
         kept["poses"] = Ri, pi
         return Ri, pi
 
@@ -208,7 +252,7 @@ class BatchKinematics:
             Ri, pi = np.broadcast_to(np.eye(3), (n, 3, 3)), np.zeros((n, 3))
         else:
             reg = self.regressors(parent, unique)
-            Ri, pi = self.joint_poses(parent, reg)
+            Ri, pi = self.joint_poses(parent, reg, unique)
         # a stack times one matrix as one (3n x 3) GEMM: several times faster than matmul's broadcasting
         Ri = np.ascontiguousarray(Ri)
         R0 = (Ri.reshape(-1, 3) @ placement.rotation).reshape(Ri.shape)
@@ -250,6 +294,8 @@ class BatchKinematics:
                 if "support" not in kept:
                     kept["support"] = reg[:, :, support]
                 parts.regressors, parts.tmap = kept["support"], tmap[support]
+        if self.tilts is not None and model.frames[fid].parentJoint:
+            self.tilts.add_terms(parts, reg, samples, ms.P_joint, model.supports[model.frames[fid].parentJoint])
         if ms.compliance_cols or ms.backlash_cols:
             Jq = np.einsum("nijk,jk->nij", reg.reshape(n, 6, nj, 6), self.constants.subspace)   # (n, 6, nv)
             tau = self.constants.tau

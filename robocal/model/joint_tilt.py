@@ -33,22 +33,23 @@ class JointTilts:
             raise ValueError("joint_tilt parameters are supported on serial (tree) robots only")
         self.entries = entries
         self.nominal = robot.model
-        self.gdata = self.nominal.createData()
+        self._gdata = None
         self.placements = {jid: model.jointPlacements[jid].copy() for jid, _, _ in entries}
-        self.axes = {jid: _axis(robot, jid) for jid, _, _ in entries}
+        memo = robot.__dict__.setdefault("_tilt_axes", {})    # joint kinds never change: once per robot
+        self.axes = {jid: memo[jid] if jid in memo else memo.setdefault(jid, _axis(robot, jid))
+                     for jid, _, _ in entries}
+
+    @property
+    def gdata(self):
+        """The nominal model's Data for the gravity moments, made on first use (a batched pass needs it once)."""
+        if self._gdata is None:
+            self._gdata = self.nominal.createData()
+        return self._gdata
 
     def moments(self, q_nominal: np.ndarray) -> dict[int, np.ndarray]:
         """Each tilted joint's perpendicular gravity moment about its placement origin, placement frame."""
-        m = self.nominal
-        zero = np.zeros(m.nv)
-        pin.rnea(m, self.gdata, q_nominal, zero, zero)            # fills gdata.f: force from the parent
-        out = {}
-        for jid, _, _ in self.entries:
-            motion = m.jointPlacements[jid].inverse() * self.gdata.liMi[jid]      # the joint's own motion
-            moment = motion.act(self.gdata.f[jid]).angular
-            a = self.axes[jid]
-            out[jid] = moment - moment.dot(a) * a
-        return out
+        joints = [jid for jid, _, _ in self.entries]
+        return dict(zip(joints, perpendicular_moments(self.nominal, self.gdata, q_nominal, joints, self.axes)))
 
     def apply(self, model, moments: dict[int, np.ndarray]) -> None:
         """Set the tilted joints' placements of `model` (the sampling copy) for one sample's moments."""
@@ -70,6 +71,20 @@ class JointTilts:
             for c, w in cols:
                 J[:, c] += w * (R @ d_tilt)
         return J
+
+
+def perpendicular_moments(model, data, q_nominal: np.ndarray, joints: list[int], axes: dict) -> np.ndarray:
+    """(len(joints), 3): each joint's gravity moment across its axis about its placement origin, placement frame
+    (the nominal `model`'s RNEA at rest at q_nominal, in `data`)."""
+    zero = np.zeros(model.nv)
+    pin.rnea(model, data, q_nominal, zero, zero)            # fills data.f: force from the parent
+    out = np.empty((len(joints), 3))
+    for k, jid in enumerate(joints):
+        motion = model.jointPlacements[jid].inverse() * data.liMi[jid]      # the joint's own motion
+        moment = motion.act(data.f[jid]).angular
+        a = axes[jid]
+        out[k] = moment - moment.dot(a) * a
+    return out
 
 
 def _twist(rotation: np.ndarray) -> np.ndarray:

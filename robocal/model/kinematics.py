@@ -101,10 +101,10 @@ class ModelState:
         self._qmap = layout.qmap
         if self.compliance.any() or self.compliance_cols:
             self._gdata = nominal.createData()
-        # the model the samples run: the calibrated one, or a copy whose tilted joints move per sample
+        # the model the samples run: the calibrated one, or a copy whose tilted joints move per sample (made on
+        # first use: a batched pass runs its own, robocal.model.batch_kinematics)
         self.tilts = JointTilts(robot, self.model, tilts) if tilts else None
-        self.kin_model = self.model.copy() if tilts else self.model
-        self._kin_data = self.kin_model.createData() if tilts else None
+        self._kin_model, self._kin_data = (None, None) if tilts else (self.model, None)
         self.loops = robot.loops
         self.warm_starts: dict = {}      # sample label -> last assembled q (shared across parameter updates)
         if self.loops is not None:
@@ -133,8 +133,19 @@ class ModelState:
         return self._data
 
     @property
+    def kin_model(self) -> pin.Model:
+        """The model the samples run: the calibrated one, or (tilts) a copy whose tilted joints move per sample."""
+        if self._kin_model is None:
+            self._kin_model = self.model.copy()
+            self._kin_data = self._kin_model.createData()
+        return self._kin_model
+
+    @property
     def kin_data(self) -> pin.Data:
-        return self._kin_data if self._kin_data is not None else self.data
+        if self.tilts is None:
+            return self.data
+        self.kin_model            # made with its Data on first use
+        return self._kin_data
 
     def _setup_relations(self, params: ParameterSet, col: dict) -> None:
         """Joint relations (screw transmissions, couplings) of a closed chain, and their parameters.
