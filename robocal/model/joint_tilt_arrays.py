@@ -11,7 +11,6 @@ Pinocchio's: the tilted placements set before each sample's forward kinematics (
 from __future__ import annotations
 
 import numpy as np
-import pinocchio as pin
 
 from robocal.model.lie_arrays import TAYLOR_3, skew
 from robocal.model.state_layout import contiguous
