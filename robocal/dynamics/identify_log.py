@@ -15,7 +15,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import pinocchio as pin
-from scipy.stats import chi2
 
 from robocal.dynamics.channels import Channels
 from robocal.dynamics.consistent_fit import ConsistentFit, fit_consistent
@@ -33,6 +32,7 @@ from robocal.dynamics.term_selection import (ADDED_COLUMN, Projector, TermTest, 
                                              delay_grid)
 from robocal.dynamics.validation import validate, wrench_rms
 from robocal.errors import InputError
+from robocal.dynamics.chi_square import chi2_quantile
 
 MODELS = ("cad", "ols", "consistent")
 
@@ -184,7 +184,7 @@ def identify_log(model: pin.Model, parts: list[LogPart], recorded: list[str], op
     body_names = [model.names[j] for j in range(1, model.njoints)]
     linear = linear_bounds(bounds, len(body_names), {n: i for i, n in enumerate(body_names)}) if bounds else None
     rss_ols, noise_unit = _noise_scale(reg_train, tau_tr, ols)
-    bound95 = float(chi2.ppf(0.95, ols.selection.rank))
+    bound95 = chi2_quantile(0.95, ols.selection.rank)
     if cfg.prior_rule == "holdout":
         prior = _holdout_choice(cfg, prepared, names, delays, ols.sigma, cad, linear)
     else:
@@ -347,7 +347,7 @@ def _within_noise(reg: Regressor, tau: np.ndarray, ols: BaseFit, fit: Consistent
     p = ols.selection.rank
     return {"distance_in_noise_units": increase / ols.inflation, "noise_inflation": ols.inflation,
             "noise_unit": noise_unit,
-            "residual_increase_independent_rows": increase, "chi2_95": float(chi2.ppf(0.95, p)),
+            "residual_increase_independent_rows": increase, "chi2_95": chi2_quantile(0.95, p),
             "base_parameters": p,
             "rms_ratio": (np.sqrt(np.mean((pred_fit - tau) ** 2, axis=0))
                           / np.sqrt(np.mean((pred_ols - tau) ** 2, axis=0))).tolist(),
