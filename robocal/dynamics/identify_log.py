@@ -185,12 +185,15 @@ def identify_log(model: pin.Model, parts: list[LogPart], recorded: list[str], op
     linear = linear_bounds(bounds, len(body_names), {n: i for i, n in enumerate(body_names)}) if bounds else None
     rss_ols, noise_unit = _noise_scale(reg_train, tau_tr, ols)
     bound95 = chi2_quantile(0.95, ols.selection.rank)
+    grid_fits = {}          # the within-noise rules' fits on the training data, one per lambda of the grid
     if cfg.prior_rule == "holdout":
         prior = _holdout_choice(cfg, prepared, names, delays, ols.sigma, cad, linear)
     else:
         prior = within_noise_choice(reg_train, tau_tr, ols.sigma, cad, cfg.prior_grid,
-                                    rss_ols if cfg.prior_rule == "within_noise" else None, noise_unit, bound95, linear)
-    consistent = fit_consistent(reg_train, tau_tr, ols.sigma, cad, prior.chosen, bounds=linear)
+                                    rss_ols if cfg.prior_rule == "within_noise" else None, noise_unit, bound95, linear,
+                                    grid_fits)
+    consistent = grid_fits.get(prior.chosen) or fit_consistent(reg_train, tau_tr, ols.sigma, cad, prior.chosen,
+                                                                bounds=linear)
     std = consistent.std(rss_ols / ols.dof * ols.inflation)
     checks = [(p, p.check) for p in prepared if p.check.any()]
     reg_check = stack([p.regressor.samples(m) for p, m in checks]).columns(names) if checks else None
@@ -219,8 +222,8 @@ def identify_log(model: pin.Model, parts: list[LogPart], recorded: list[str], op
                            rss_ols, noise_unit)
     # what the data push against: the constraints' costs in the fit with the weakest prior of the grid (the
     # constraints alone; the chosen prior's own pull is not the data's), the same fit when it was chosen
-    weakest = consistent if prior.chosen == min(cfg.prior_grid) else fit_consistent(
-        reg_train, tau_tr, ols.sigma, cad, min(cfg.prior_grid), bounds=linear)
+    weakest = consistent if prior.chosen == min(cfg.prior_grid) else grid_fits.get(float(min(cfg.prior_grid))) or \
+        fit_consistent(reg_train, tau_tr, ols.sigma, cad, min(cfg.prior_grid), bounds=linear)
     costs = constraint_costs(reg_train, tau_tr, ols.sigma, cad, weakest, body_names, noise_unit, linear)
     return IdentifyResult(options, model, recorded, prepared, joint_terms, delays, tests, ols, consistent, std, prior,
                           list(bounds or []), consistency, validation, training_rms, t_range, within, wrench, curves,
