@@ -111,9 +111,10 @@ def parallel_filter(proc: ProcessedLog, columns: np.ndarray) -> np.ndarray:
     filtered in one call, each as it would be alone."""
     flat = columns.reshape(len(columns), -1)
     used = np.flatnonzero(np.any(flat != 0.0, axis=0))
-    out = np.zeros_like(flat)
-    out[:, used] = lowpass(flat[:, used], proc.fs_raw, proc.cutoff_hz, proc.order)
-    return proc.decimated(out.reshape(columns.shape))
+    kept = proc.decimated(flat[:, used[:1]])                       # the samples kept (decimation is by rows)
+    out = np.zeros((len(kept), flat.shape[1]))
+    out[:, used] = proc.decimated(lowpass(flat[:, used], proc.fs_raw, proc.cutoff_hz, proc.order))
+    return out.reshape((len(kept),) + columns.shape[1:])
 
 
 def uniform_grid(t: np.ndarray) -> tuple[np.ndarray, float]:
