@@ -2,8 +2,8 @@
 
     OMP_NUM_THREADS=1 python benchmarks/workflow_timing.py [--baseline COMMIT] [--repeats 5] [--only WORD]
 
-Each run is `python -c "from robocal.cli.main import main; main(ARGS)"` with one tree first on sys.path, as the
-`robocal` script runs it, bytecode compiled first (benchmarks/cli_timing.py: what pip leaves installed). The
+Each run is `python -c "from robocal.cli.main import main; sys.argv = ['robocal', *ARGS]; main()"` with one
+tree first on sys.path, as the `robocal` script runs it, bytecode compiled first (benchmarks/cli_timing.py: what pip leaves installed). The
 baseline tree is `git archive COMMIT robocal` (default: the merge base with main) unpacked into a temporary
 folder. Baseline and new runs alternate within each repeat, so load from other jobs on the shared machine hits
 both alike; the table gives medians of the repeats, wall time and CPU time (user + system of the child, which
@@ -40,7 +40,7 @@ MOTOR = ("ur5_coupled", "tiago_wrist")
 def run_once(root: Path, argv: list[str], cwd: Path) -> tuple[float, float]:
     """(wall s, CPU s) of one command in a fresh process with the tree at `root` first on sys.path."""
     code = ("import sys; sys.path.insert(0, sys.argv[1]); from robocal.cli.main import main; "
-            "sys.exit(main(sys.argv[2:]))") if argv is not None else "import pinocchio"
+            "sys.argv = ['robocal'] + sys.argv[2:]; sys.exit(main())") if argv is not None else "import pinocchio"
     env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
     env["OMP_NUM_THREADS"] = "1"
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
