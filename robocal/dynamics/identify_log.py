@@ -171,15 +171,16 @@ def identify_log(model: pin.Model, parts: list[LogPart], recorded: list[str], op
     joint_terms = {model.names[_joint_of(model, j)]: tuple(t for t in cfg.terms if t in allowed[j]) for j in allowed}
     candidate_pairs = [(model.names[_joint_of(model, j)], c) for j in allowed for c in candidates if c in allowed[j]]
     delays = np.zeros(nr)
-    ols = fit_base(full_train.columns(names_for(joint_terms)), tau_train(delays), inflation=inflation)
+    fit = fits_of_one_log(inflation)
+    ols = fit(full_train.columns(names_for(joint_terms)), tau_train(delays))
     if ols.selection.rank == 0:
         raise InputError("the training window identifies no parameter", source=cfg.source, field="windows.train")
     tests, delays = _choose_terms(cfg, prepared, full_train, recorded, candidate_pairs, joint_terms, names_for,
-                                  tau_train, inflation)
+                                  tau_train, fit)
     names = names_for(joint_terms)
     reg_train = full_train.columns(names)
     tau_tr = tau_train(delays)
-    ols = fit_base(reg_train, tau_tr, inflation=inflation)
+    ols = fit(reg_train, tau_tr)
     cad = parameter_vector(model)
     body_names = [model.names[j] for j in range(1, model.njoints)]
     linear = linear_bounds(bounds, len(body_names), {n: i for i, n in enumerate(body_names)}) if bounds else None
@@ -235,7 +236,21 @@ def _joint_of(model: pin.Model, idx_v: int) -> int:
     return next(j for j in range(1, model.njoints) if model.joints[j].idx_v == idx_v)
 
 
-def _choose_terms(cfg, prepared, full_train, recorded, pairs, joint_terms, names_for, tau_train, inflation):
+def fits_of_one_log(inflation: float):
+    """fit_base for the regressors of one identification (all columns of one full regressor, named), each
+    (columns, torques) pair fitted once: the first fit, the term tests' rounds, the delay search and the final fit
+    often ask for the same one (all five on the shipped TIAGo log, which keeps no term and no delay)."""
+    done: dict[tuple, BaseFit] = {}
+
+    def fit(reg: Regressor, tau: np.ndarray) -> BaseFit:
+        key = (tuple(reg.names), np.ascontiguousarray(tau, float).tobytes())
+        if key not in done:
+            done[key] = fit_base(reg, tau, inflation=inflation)
+        return done[key]
+    return fit
+
+
+def _choose_terms(cfg, prepared, full_train, recorded, pairs, joint_terms, names_for, tau_train, fit):
     """term_selection.py's tests, in an order that keeps one term's misfit from passing for another's: the
     added columns with no delay, then the delays in the model with the columns found, then the columns again
     with those delays (their final decision). pairs: (joint, candidate) tried; recorded: the channels (a delay
@@ -250,8 +265,8 @@ def _choose_terms(cfg, prepared, full_train, recorded, pairs, joint_terms, names
         terms, result, remaining = dict(joint_terms), {}, list(pairs)
         while remaining:
             reg = full_train.columns(names_for(terms))
-            fit = fit_base(reg, tau_train(delays), inflation=inflation)
-            projector, weights, unit = _projector(reg, fit, tau_train(delays))
+            base = fit(reg, tau_train(delays))
+            projector, weights, unit = _projector(reg, base, tau_train(delays))
             round_ = added_column_tests(projector, weights, tau_train(delays).reshape(-1), remaining, columns, unit,
                                         len(pairs))
             result.update({(t.joint, t.term): t for t in round_})
@@ -269,8 +284,8 @@ def _choose_terms(cfg, prepared, full_train, recorded, pairs, joint_terms, names
     if "delay" in cfg.candidate_terms:
         with_found = {j: t + tuple(f.term for f in found if f.kept and f.joint == j) for j, t in joint_terms.items()}
         reg = full_train.columns(names_for(with_found))
-        fit = fit_base(reg, tau_train(delays), inflation=inflation)
-        projector, weights, unit = _projector(reg, fit, tau_train(delays))
+        base = fit(reg, tau_train(delays))
+        projector, weights, unit = _projector(reg, base, tau_train(delays))
         unshifted = tau_train(delays)
 
         def torque_at(k, d):
