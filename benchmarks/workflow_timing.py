@@ -2,8 +2,8 @@
 
     OMP_NUM_THREADS=1 python benchmarks/workflow_timing.py [--baseline COMMIT] [--repeats 5] [--only WORD]
 
-Each run is `python -c "from robocal.cli.main import main; main(ARGS)"` with one tree first on sys.path, as the
-`robocal` script runs it, bytecode compiled first (benchmarks/cli_timing.py: what pip leaves installed). The
+Each run is `python -c "from robocal.cli.main import main; sys.argv = ['robocal', *ARGS]; main()"` with one
+tree first on sys.path, as the `robocal` script runs it, bytecode compiled first (benchmarks/cli_timing.py: what pip leaves installed). The
 baseline tree is `git archive COMMIT robocal` (default: the merge base with main) unpacked into a temporary
 folder. Baseline and new runs alternate within each repeat, so load from other jobs on the shared machine hits
 both alike; the table gives medians of the repeats, wall time and CPU time (user + system of the child, which
@@ -11,8 +11,9 @@ waiting for a core does not inflate). "work" is the command's CPU time minus tha
 pinocchio"` (interpreter, numpy and Pinocchio: what every command starts with) in the same run.
 
 Examples: the demo (robocal/io/demo/ur5_calibrate.yaml), examples/tiago_mocap/*.yaml (the select_* configs are
-`robocal select`'s, not timed here), examples/closed_loops/*.yaml, examples/tiago_dynamics/identify.yaml,
-examples/plan_ur5.yaml, and an ISO 9283 data set written by this script (tests/test_iso9283_cli.py's recipe).
+`robocal select`'s, not timed here), examples/closed_loops/*.yaml, examples/plan_ur5.yaml, an ISO 9283 data set
+written by this script (tests/test_iso9283_cli.py's recipe), and the dynamics configs examples/tiago_dynamics/
+identify.yaml and examples/motor_dynamics/{ur5_coupled,tiago_wrist}.yaml (identify, then evaluate of its folder).
 """
 from __future__ import annotations
 
@@ -33,12 +34,13 @@ from cli_timing import compile_bytecode  # noqa: E402
 EX = ROOT / "examples"
 TIAGO = EX / "tiago_mocap"
 VALIDATION = TIAGO / "data" / "qualisys_2021-11-26_static_postures.csv"
+MOTOR = ("ur5_coupled", "tiago_wrist")
 
 
 def run_once(root: Path, argv: list[str], cwd: Path) -> tuple[float, float]:
     """(wall s, CPU s) of one command in a fresh process with the tree at `root` first on sys.path."""
     code = ("import sys; sys.path.insert(0, sys.argv[1]); from robocal.cli.main import main; "
-            "sys.exit(main(sys.argv[2:]))") if argv is not None else "import pinocchio"
+            "sys.argv = ['robocal'] + sys.argv[2:]; sys.exit(main())") if argv is not None else "import pinocchio"
     env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
     env["OMP_NUM_THREADS"] = "1"
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
@@ -83,8 +85,31 @@ def cases(tmp: Path) -> list[tuple[str, str, object]]:
     out.append(("iso9283", "ur5 iso (50 + 18 rows)", lambda d: ["iso9283", str(iso), "-q"]))
     out.append(("plan", "plan_ur5.yaml", lambda d: ["plan", str(EX / "plan_ur5.yaml"), "-o", str(d / "plan"),
                                                     "--force", "-q"]))
-    out.append(("identify", "tiago_dynamics", lambda d: ["identify", str(EX / "tiago_dynamics" / "identify.yaml"),
-                                                         "-o", str(d / "identify"), "--force"]))
+    out += identify_cases(tmp)
+    return out
+
+
+def identify_cases(tmp: Path) -> list[tuple[str, str, object]]:
+    """`robocal identify` on each shipped dynamics config, then `robocal evaluate` of its folder on another log:
+    the motor examples' second sessions (their 5 kHz logs written by examples/motor_dynamics/make_logs.py when
+    missing: not in git, ~14 MB each), the TIAGo's own 60 s log (no second log shipped: the same work)."""
+    motor = EX / "motor_dynamics"
+    if not all((motor / "data" / f"{n}_session{s}.csv").is_file() for n in MOTOR for s in (1, 2)):
+        subprocess.run([sys.executable, str(motor / "make_logs.py")], check=True, capture_output=True,
+                       env={**os.environ, "PYTHONPATH": str(ROOT)})
+    tiago_log = tmp / "tiago_60s.yaml"
+    data = EX / "tiago_dynamics" / "data"
+    tiago_log.write_text(f"name: tiago_60s\nposition: {data / 'tiago_position.csv'}\n"
+                         f"velocity: {data / 'tiago_velocity.csv'}\neffort: {data / 'tiago_effort.csv'}\n"
+                         "window: [9.2, 60.0]\n")
+    configs = [("tiago_dynamics", EX / "tiago_dynamics" / "identify.yaml", tiago_log)]
+    configs += [(f"motor {n}", motor / f"{n}.yaml", motor / f"{n}_session2.yaml") for n in MOTOR]
+    out = []
+    for label, cfg, log in configs:
+        key = "identify_" + label.replace(" ", "_")
+        out.append(("identify", label, lambda d, c=cfg, k=key: ["identify", str(c), "-o", str(d / k), "--force",
+                                                                "-q"]))
+        out.append(("evaluate", f"{label} (identify)", lambda d, k=key, v=log: ["evaluate", str(d / k), str(v)]))
     return out
 
 
@@ -123,6 +148,7 @@ def main():
                     times.setdefault((cmd, label, name), []).append(
                         run_once(root, None if argv is None else argv(out), out))
         med = {k: (statistics.median(w for w, _ in v), statistics.median(c for _, c in v)) for k, v in times.items()}
+        same = same_identification(tmp / "out_base", tmp / "out_new") if "base" in trees else []
     print(f"baseline: robocal at {commit[:7]}; new: this tree; medians of {args.repeats}, baseline and new alternating; "
           f"load average {load:.1f} -> {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
     print("work = CPU s of the command - CPU s of `python -c \"import pinocchio\"` (same run)\n")
@@ -141,6 +167,43 @@ def main():
         if len(names) == 2:
             line += f"{med[(cmd, label, 'base')][1] / med[(cmd, label, 'new')][1]:>13.2f}x"
         print(line)
+    for line in same:
+        print(line)
+
+
+def numbers(x, path=""):
+    """Every number of a JSON value, keyed by its path; strings too (a changed word is a changed result)."""
+    if isinstance(x, dict):
+        return {k: v for key, val in x.items() for k, v in numbers(val, f"{path}/{key}").items()}
+    if isinstance(x, list):
+        return {k: v for i, val in enumerate(x) for k, v in numbers(val, f"{path}[{i}]").items()}
+    return {path: x}
+
+
+def same_identification(base: Path, new: Path, rtol: float = 1e-9) -> list[str]:
+    """The identify folders' result.json and evaluation_*.json of both trees, number by number: the largest
+    relative difference (issue 37: a speed change moves no result beyond rounding, 1e-9)."""
+    import json
+    out = []
+    for folder in sorted(new.glob("identify_*")):
+        for f in sorted(p for p in folder.glob("*.json") if not p.name.startswith(".")):   # not the manifest
+            a, b = numbers(json.loads((base / folder.name / f.name).read_text())), numbers(json.loads(f.read_text()))
+            if a.keys() != b.keys():
+                raise AssertionError(f"{folder.name}/{f.name}: keys differ: {sorted(a.keys() ^ b.keys())[:5]}")
+            worst, where = 0.0, ""
+            for k, va in a.items():
+                vb = b[k]
+                if isinstance(va, (int, float)) and isinstance(vb, (int, float)) and not isinstance(va, bool):
+                    d = abs(va - vb) / max(abs(va), abs(vb), 1e-300) if va != vb else 0.0
+                    if d > worst:
+                        worst, where = d, k
+                elif va != vb and not (isinstance(va, str) and base.name in va):    # paths name their tree
+                    raise AssertionError(f"{folder.name}/{f.name}{k}: {va!r} against {vb!r}")
+            if worst > rtol:
+                raise AssertionError(f"{folder.name}/{f.name}{where}: relative difference {worst:.2e} > {rtol}")
+            out.append(f"same result: {folder.name}/{f.name}, {len(a)} values, largest relative difference "
+                       f"{worst:.1e}{' at ' + where if where else ''}")
+    return out
 
 
 if __name__ == "__main__":

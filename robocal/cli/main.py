@@ -87,6 +87,7 @@ def subcommands(parser: argparse.ArgumentParser) -> list[argparse.ArgumentParser
 
 
 def main(argv: list[str] | None = None) -> int:
+    process = argv is None              # the `robocal` command itself, not a call from Python
     argv = sys.argv[1:] if argv is None else list(argv)
     # Loading a command's modules allocates much and frees little: without the cyclic collector meanwhile,
     # ~25 ms less start-up (benchmarks/startup.py)
@@ -104,6 +105,9 @@ def main(argv: list[str] | None = None) -> int:
     except RobocalError as exc:
         print(f"robocal: error: {exc}", file=sys.stderr)
         return 2
+    finally:
+        if process:     # the process ends now: Python's collection at exit would walk every object the
+            gc.freeze()  # command's modules made, 0.1-0.2 s of CPU after scipy's (benchmarks/workflow_timing.py)
 
 
 if __name__ == "__main__":

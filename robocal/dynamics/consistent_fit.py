@@ -17,6 +17,7 @@ not converged after 5000 evaluations on the TIAGo log; see docs/dynamics_tiago.m
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import lru_cache
 
 import numpy as np
 
@@ -67,8 +68,15 @@ class ConsistentFit:
 
 def prior_scales(cad: np.ndarray) -> np.ndarray:
     """Per-parameter scales s (10 nb,) from the CAD bodies (see module docstring)."""
+    cad = np.asarray(cad, float)
+    return scales_of(cad.tobytes()).copy()
+
+
+@lru_cache(maxsize=4)      # an identification fits the same CAD bodies some 25 times
+def scales_of(cad_bytes: bytes) -> np.ndarray:
+    """prior_scales of the CAD vector given as its float64 bytes (the cache's key)."""
     out = []
-    for p in np.asarray(cad, float).reshape(-1, 10):
+    for p in np.frombuffer(cad_bytes).reshape(-1, 10):
         m = max(p[0], 1e-6)
         length = np.sqrt(max(np.trace(pseudo_inertia(p)[:3, :3]) / m, 1e-6))
         out.append(np.r_[m, np.full(3, m * length), np.full(6, m * length**2)])

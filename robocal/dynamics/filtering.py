@@ -105,8 +105,16 @@ class ProcessedLog:
 def parallel_filter(proc: ProcessedLog, columns: np.ndarray) -> np.ndarray:
     """The log's low-pass applied along axis 0 of `columns` (T, ...) at its full rate, then the samples of
     `proc.decimated`. The columns are computed from the filtered log, valid only inside its trimmed
-    edges: this second filtering has edge transients of its own, which `proc.inner_trim` removes."""
-    return proc.decimated(lowpass(columns, proc.fs_raw, proc.cutoff_hz, proc.order))
+    edges: this second filtering has edge transients of its own, which `proc.inner_trim` removes.
+    Columns that are zero at every sample (a joint's row of a body it does not carry, another joint's friction:
+    over half of a regressor) are left at zero, which is what the filter makes of them, exactly; the others are
+    filtered in one call, each as it would be alone."""
+    flat = columns.reshape(len(columns), -1)
+    used = np.flatnonzero(np.any(flat != 0.0, axis=0))
+    kept = proc.decimated(flat[:, used[:1]])                       # the samples kept (decimation is by rows)
+    out = np.zeros((len(kept), flat.shape[1]))
+    out[:, used] = proc.decimated(lowpass(flat[:, used], proc.fs_raw, proc.cutoff_hz, proc.order))
+    return out.reshape((len(kept),) + columns.shape[1:])
 
 
 def uniform_grid(t: np.ndarray) -> tuple[np.ndarray, float]:

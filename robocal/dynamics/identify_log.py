@@ -15,7 +15,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import pinocchio as pin
-from scipy.stats import chi2
 
 from robocal.dynamics.channels import Channels
 from robocal.dynamics.consistent_fit import ConsistentFit, fit_consistent
@@ -33,6 +32,7 @@ from robocal.dynamics.term_selection import (ADDED_COLUMN, Projector, TermTest, 
                                              delay_grid)
 from robocal.dynamics.validation import validate, wrench_rms
 from robocal.errors import InputError
+from robocal.dynamics.chi_square import chi2_quantile
 
 MODELS = ("cad", "ols", "consistent")
 
@@ -171,26 +171,30 @@ def identify_log(model: pin.Model, parts: list[LogPart], recorded: list[str], op
     joint_terms = {model.names[_joint_of(model, j)]: tuple(t for t in cfg.terms if t in allowed[j]) for j in allowed}
     candidate_pairs = [(model.names[_joint_of(model, j)], c) for j in allowed for c in candidates if c in allowed[j]]
     delays = np.zeros(nr)
-    ols = fit_base(full_train.columns(names_for(joint_terms)), tau_train(delays), inflation=inflation)
+    fit = fits_of_one_log(inflation)
+    ols = fit(full_train.columns(names_for(joint_terms)), tau_train(delays))
     if ols.selection.rank == 0:
         raise InputError("the training window identifies no parameter", source=cfg.source, field="windows.train")
     tests, delays = _choose_terms(cfg, prepared, full_train, recorded, candidate_pairs, joint_terms, names_for,
-                                  tau_train, inflation)
+                                  tau_train, fit)
     names = names_for(joint_terms)
     reg_train = full_train.columns(names)
     tau_tr = tau_train(delays)
-    ols = fit_base(reg_train, tau_tr, inflation=inflation)
+    ols = fit(reg_train, tau_tr)
     cad = parameter_vector(model)
     body_names = [model.names[j] for j in range(1, model.njoints)]
     linear = linear_bounds(bounds, len(body_names), {n: i for i, n in enumerate(body_names)}) if bounds else None
     rss_ols, noise_unit = _noise_scale(reg_train, tau_tr, ols)
-    bound95 = float(chi2.ppf(0.95, ols.selection.rank))
+    bound95 = chi2_quantile(0.95, ols.selection.rank)
+    grid_fits = {}          # the within-noise rules' fits on the training data, one per lambda of the grid
     if cfg.prior_rule == "holdout":
         prior = _holdout_choice(cfg, prepared, names, delays, ols.sigma, cad, linear)
     else:
         prior = within_noise_choice(reg_train, tau_tr, ols.sigma, cad, cfg.prior_grid,
-                                    rss_ols if cfg.prior_rule == "within_noise" else None, noise_unit, bound95, linear)
-    consistent = fit_consistent(reg_train, tau_tr, ols.sigma, cad, prior.chosen, bounds=linear)
+                                    rss_ols if cfg.prior_rule == "within_noise" else None, noise_unit, bound95, linear,
+                                    grid_fits)
+    consistent = grid_fits.get(prior.chosen) or fit_consistent(reg_train, tau_tr, ols.sigma, cad, prior.chosen,
+                                                                bounds=linear)
     std = consistent.std(rss_ols / ols.dof * ols.inflation)
     checks = [(p, p.check) for p in prepared if p.check.any()]
     reg_check = stack([p.regressor.samples(m) for p, m in checks]).columns(names) if checks else None
@@ -219,8 +223,8 @@ def identify_log(model: pin.Model, parts: list[LogPart], recorded: list[str], op
                            rss_ols, noise_unit)
     # what the data push against: the constraints' costs in the fit with the weakest prior of the grid (the
     # constraints alone; the chosen prior's own pull is not the data's), the same fit when it was chosen
-    weakest = consistent if prior.chosen == min(cfg.prior_grid) else fit_consistent(
-        reg_train, tau_tr, ols.sigma, cad, min(cfg.prior_grid), bounds=linear)
+    weakest = consistent if prior.chosen == min(cfg.prior_grid) else grid_fits.get(float(min(cfg.prior_grid))) or \
+        fit_consistent(reg_train, tau_tr, ols.sigma, cad, min(cfg.prior_grid), bounds=linear)
     costs = constraint_costs(reg_train, tau_tr, ols.sigma, cad, weakest, body_names, noise_unit, linear)
     return IdentifyResult(options, model, recorded, prepared, joint_terms, delays, tests, ols, consistent, std, prior,
                           list(bounds or []), consistency, validation, training_rms, t_range, within, wrench, curves,
@@ -232,7 +236,21 @@ def _joint_of(model: pin.Model, idx_v: int) -> int:
     return next(j for j in range(1, model.njoints) if model.joints[j].idx_v == idx_v)
 
 
-def _choose_terms(cfg, prepared, full_train, recorded, pairs, joint_terms, names_for, tau_train, inflation):
+def fits_of_one_log(inflation: float):
+    """fit_base for the regressors of one identification (all columns of one full regressor, named), each
+    (columns, torques) pair fitted once: the first fit, the term tests' rounds, the delay search and the final fit
+    often ask for the same one (all five on the shipped TIAGo log, which keeps no term and no delay)."""
+    done: dict[tuple, BaseFit] = {}
+
+    def fit(reg: Regressor, tau: np.ndarray) -> BaseFit:
+        key = (tuple(reg.names), np.ascontiguousarray(tau, float).tobytes())
+        if key not in done:
+            done[key] = fit_base(reg, tau, inflation=inflation)
+        return done[key]
+    return fit
+
+
+def _choose_terms(cfg, prepared, full_train, recorded, pairs, joint_terms, names_for, tau_train, fit):
     """term_selection.py's tests, in an order that keeps one term's misfit from passing for another's: the
     added columns with no delay, then the delays in the model with the columns found, then the columns again
     with those delays (their final decision). pairs: (joint, candidate) tried; recorded: the channels (a delay
@@ -247,8 +265,8 @@ def _choose_terms(cfg, prepared, full_train, recorded, pairs, joint_terms, names
         terms, result, remaining = dict(joint_terms), {}, list(pairs)
         while remaining:
             reg = full_train.columns(names_for(terms))
-            fit = fit_base(reg, tau_train(delays), inflation=inflation)
-            projector, weights, unit = _projector(reg, fit, tau_train(delays))
+            base = fit(reg, tau_train(delays))
+            projector, weights, unit = _projector(reg, base, tau_train(delays))
             round_ = added_column_tests(projector, weights, tau_train(delays).reshape(-1), remaining, columns, unit,
                                         len(pairs))
             result.update({(t.joint, t.term): t for t in round_})
@@ -266,8 +284,8 @@ def _choose_terms(cfg, prepared, full_train, recorded, pairs, joint_terms, names
     if "delay" in cfg.candidate_terms:
         with_found = {j: t + tuple(f.term for f in found if f.kept and f.joint == j) for j, t in joint_terms.items()}
         reg = full_train.columns(names_for(with_found))
-        fit = fit_base(reg, tau_train(delays), inflation=inflation)
-        projector, weights, unit = _projector(reg, fit, tau_train(delays))
+        base = fit(reg, tau_train(delays))
+        projector, weights, unit = _projector(reg, base, tau_train(delays))
         unshifted = tau_train(delays)
 
         def torque_at(k, d):
@@ -347,7 +365,7 @@ def _within_noise(reg: Regressor, tau: np.ndarray, ols: BaseFit, fit: Consistent
     p = ols.selection.rank
     return {"distance_in_noise_units": increase / ols.inflation, "noise_inflation": ols.inflation,
             "noise_unit": noise_unit,
-            "residual_increase_independent_rows": increase, "chi2_95": float(chi2.ppf(0.95, p)),
+            "residual_increase_independent_rows": increase, "chi2_95": chi2_quantile(0.95, p),
             "base_parameters": p,
             "rms_ratio": (np.sqrt(np.mean((pred_fit - tau) ** 2, axis=0))
                           / np.sqrt(np.mean((pred_ols - tau) ** 2, axis=0))).tolist(),

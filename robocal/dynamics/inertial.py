@@ -31,14 +31,18 @@ def with_parameters(model: pin.Model, params: np.ndarray) -> pin.Model:
     return out
 
 
-def torque_regressor(model: pin.Model, q: np.ndarray, v: np.ndarray, a: np.ndarray) -> np.ndarray:
-    """Stacked joint-torque regressor (T nv, 10 (njoints - 1)), rows sample-major: tau = Y @ pi."""
+def torque_regressor(model: pin.Model, q: np.ndarray, v: np.ndarray, a: np.ndarray, rows=None) -> np.ndarray:
+    """Stacked joint-torque regressor (T nv, 10 (njoints - 1)), rows sample-major: tau = Y @ pi. rows: the
+    velocity indices kept (T len(rows) rows), every one by default; written into one array as computed."""
     q, v, a = (np.atleast_2d(np.asarray(x, float)) for x in (q, v, a))
     if not (len(q) == len(v) == len(a)):
         raise InputError("q, v, a must have the same number of samples", field="q")
     data = model.createData()
-    return np.concatenate([pin.computeJointTorqueRegressor(model, data, q[k], v[k], a[k])
-                           for k in range(len(q))], axis=0)
+    keep = slice(None) if rows is None else np.asarray(rows, int)
+    out = np.empty((len(q), model.nv if rows is None else len(keep), 10 * (model.njoints - 1)))
+    for k in range(len(q)):
+        out[k] = pin.computeJointTorqueRegressor(model, data, q[k], v[k], a[k])[keep]
+    return out.reshape(-1, out.shape[2])
 
 
 def pseudo_inertia(params10: np.ndarray) -> np.ndarray:

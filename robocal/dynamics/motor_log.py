@@ -87,7 +87,17 @@ class _Reader:
         self.line = 2
 
     def block(self, size: int) -> np.ndarray:
-        rows = list(islice(self.rows, size))
+        lines = list(islice(self.handle, size))     # the header was read through the csv reader: rows follow
+        if not lines:
+            return np.zeros((0, len(self.index)))
+        try:        # numpy's C parser (float() on each cell, 5x faster); any doubt: the checked path below
+            out = np.loadtxt(lines, delimiter=",", usecols=self.index, ndmin=2, comments=None, quotechar='"')
+        except ValueError:
+            out = None
+        if out is not None and out.shape == (len(lines), len(self.index)) and np.all(np.isfinite(out)):
+            self.line += len(lines)
+            return out
+        rows = list(csv.reader(lines))
         try:
             out = np.array([[r[i] for i in self.index] for r in rows], dtype=float).reshape(len(rows), len(self.index))
         except (ValueError, IndexError):

@@ -51,13 +51,18 @@ class PriorWeightChoice:
 
 
 def within_noise_choice(reg: Regressor, tau: np.ndarray, sigma: np.ndarray, cad: np.ndarray, grid,
-                        rss_ols: float | None, noise_unit: float, bound: float, bounds=None) -> PriorWeightChoice:
+                        rss_ols: float | None, noise_unit: float, bound: float, bounds=None,
+                        fits: dict | None = None) -> PriorWeightChoice:
     """The largest lambda whose fit's weighted data cost exceeds the reference by at most bound noise units
     (noise_unit: weighted cost per unit); else the smallest lambda. Reference: the unconstrained fit's cost
     rss_ols (rule within_noise), or with rss_ols None the weakest lambda's fit (within_bounds_noise).
-    bounds: the plausibility rows (plausible_bounds.LinearBounds) every fit keeps."""
+    bounds: the plausibility rows (plausible_bounds.LinearBounds) every fit keeps; fits: a dict that receives
+    each lambda's fit (the caller's fit at the chosen or the weakest lambda is one of them: not solved twice)."""
     ordered = sorted(float(g) for g in grid)
-    costs = [fit_consistent(reg, tau, sigma, cad, lam, bounds=bounds).data_cost for lam in ordered]
+    fitted = {lam: fit_consistent(reg, tau, sigma, cad, lam, bounds=bounds) for lam in ordered}
+    if fits is not None:
+        fits.update(fitted)
+    costs = [fitted[lam].data_cost for lam in ordered]
     rule = "within_noise" if rss_ols is not None else "within_bounds_noise"
     reference = rss_ols if rss_ols is not None else costs[0]
     distance = [(c - reference) / noise_unit for c in costs]

@@ -88,7 +88,7 @@ def build_regressor(model: pin.Model, q: np.ndarray, v: np.ndarray, a: np.ndarra
                 raise InputError(f"unknown term '{term}'; known: {', '.join(TERMS)}", source="config",
                                  field="model.terms")
     T, nv = v.shape
-    Y = torque_regressor(model, q, v, a).reshape(T, nv, -1)[:, recorded, :]
+    Y = torque_regressor(model, q, v, a, recorded).reshape(T, len(recorded), -1)
     nr = len(recorded)
     width = np.zeros(nv)
     width[recorded] = np.broadcast_to(np.asarray(coulomb_width, float), (nr,))

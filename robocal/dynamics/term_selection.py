@@ -24,7 +24,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.stats import chi2
+
+from robocal.dynamics.chi_square import chi2_quantile
 
 #: the column a candidate adds to the span of the model's columns
 ADDED_COLUMN = {"spring": "spring", "coulomb_asymmetric": "coulomb_pos", "viscous_asymmetric": "viscous_pos"}
@@ -65,7 +66,7 @@ def choose_delays(projector: Projector, weights: np.ndarray, torque_at, joints: 
     per row (1/sigma, rows sample-major)."""
     base = torque_at(None, 0.0)
     rss0 = float(np.sum(projector.residual(base.reshape(-1) * weights) ** 2))
-    threshold = float(chi2.ppf(1 - TEST_LEVEL / (len(grid) * len(joints)), 1))
+    threshold = chi2_quantile(1 - TEST_LEVEL / (len(grid) * len(joints)), 1)
     out = []
     for k, name in enumerate(joints):
         rss = [float(np.sum(projector.residual(torque_at(k, d).reshape(-1) * weights) ** 2)) for d in grid]
@@ -81,7 +82,7 @@ def added_column_tests(projector: Projector, weights: np.ndarray, y: np.ndarray,
     """Each (joint, term) of `candidates` with its added column (unweighted, rows as y): the residual's
     fall when that column joins the base (one degree of freedom)."""
     r0 = projector.residual(y * weights)
-    threshold = float(chi2.ppf(1 - TEST_LEVEL / max(n_tests, 1), 1))
+    threshold = chi2_quantile(1 - TEST_LEVEL / max(n_tests, 1), 1)
     out = []
     for joint, term in candidates:
         c = columns[(joint, term)] * weights

@@ -134,7 +134,8 @@ class Panel:
         self.parts = out + self.parts
 
     def legend(self, entries: list[tuple[str, str, str]], size: float = FONT - 1) -> None:
-        """Entries (label, colour, kind: "dot" | "cross" | "dash") in a box at the top right."""
+        """Entries (label, colour, kind: "dot" | "cross" | "dash" | "dash:PATTERN" | "line") in a box at the top
+        right."""
         width = max(text_width(t, size) for t, _, _ in entries) + 34
         x0, y0 = self.x + self.w - width - 6, self.y + 6
         out = [f'<rect x="{num(x0)}" y="{num(y0)}" width="{num(width)}" height="{num(len(entries) * (size + 6) + 6)}" '
@@ -146,8 +147,9 @@ class Panel:
                            f' stroke="{colour}" stroke-width="5" stroke-linecap="round"/>')
             elif kind == "cross":
                 out.append(f'<path d="M{num(x0 + 12)} {num(y - 3)}l6 6m0 -6l-6 6" stroke="{colour}" stroke-width="1.2"/>')
-            else:
-                out.append(f'<path d="M{num(x0 + 8)} {num(y)}h14" stroke="{colour}" stroke-dasharray="4 2"/>')
+            else:           # "dash", "dash:PATTERN" (an SVG dash array), "line" (solid)
+                dash = "" if kind == "line" else f' stroke-dasharray="{kind.partition(":")[2] or "4 2"}"'
+                out.append(f'<path d="M{num(x0 + 8)} {num(y)}h14" stroke="{colour}"{dash}/>')
             out.append(f'<text x="{num(x0 + 28)}" y="{num(y)}" dy="0.35em" font-size="{size}">{html.escape(text)}</text>')
         self.parts += out
 

@@ -10,7 +10,7 @@ grid; the model's torque is computed there (RNEA plus the joint terms) and inter
 of the log inside the filter's trimmed edges (a row's torque reading at t is the model's at t - delay).
 Scored per recorded joint against the logged torque itself (effort mapped as at identification, no
 filter) and against the same torque through the identification's low-pass. Outputs, added to the folder:
-evaluation_<name>.json and evaluation_<name>.png.
+evaluation_<name>.json and evaluation_<name>.svg (robocal.viz.svg_torques).
 A model identified from motor-side logs (its side file has a transmission) predicts motor-side logs: LOG.yaml
 gives position and effort (motor encoders and currents; `sample_period_s` when there is no time column), the
 motors' torques are scored per motor, and their errors mapped to the joints (tau = T^-T tau_m) per joint. A log
@@ -19,7 +19,6 @@ kept rows (every r-th), against their raw readings. See docs/dynamics_motors.md.
 """
 from __future__ import annotations
 
-import io
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -35,6 +34,7 @@ from robocal.errors import InputError
 from robocal.io.output_folder import write_folder
 from robocal.io.yaml_files import read_yaml
 from robocal.workflows.config_keys import Cfg
+from robocal.viz.svg_torques import joint_torques
 from robocal.workflows.identify_urdf import joint_unit
 
 LOG_KEYS = ("name", "position", "velocity", "effort", "time_column", "sample_period_s", "columns", "window")
@@ -148,23 +148,17 @@ def _read_log(c: Cfg, log_yaml: Path, dyn: IdentifiedDynamics, model, max_rate_h
 
 
 def evaluation_figure(ev: DynamicsEvaluation) -> bytes:
-    from robocal.viz.plots import joint_torques   # optional dependency (matplotlib): only for a figure
-    buf = io.BytesIO()
-    joint_torques(ev.t, ev.logged, {"filtered torque": ev.filtered, "identified model": ev.predicted}, buf,
-                  [j.replace("_joint", "") for j in ev.recorded], ev.units,
-                  title=f"{ev.name}: logged torque (raw rows) vs the identified model's prediction")
-    return buf.getvalue()
+    return joint_torques(ev.t, ev.logged, {"filtered torque": ev.filtered, "identified model": ev.predicted},
+                         [j.replace("_joint", "") for j in ev.recorded], ev.units,
+                         title=f"{ev.name}: logged torque (raw rows) vs the identified model's prediction").encode()
 
 
 def write_evaluation(folder: str | Path, ev: DynamicsEvaluation) -> dict[str, Path]:
-    """Add evaluation_<name>.json (and .png with matplotlib) to the identify folder, atomically."""
+    """Add evaluation_<name>.json and evaluation_<name>.svg to the identify folder, atomically."""
     folder = Path(folder).resolve()
     files = {p.name: p.read_bytes() for p in folder.iterdir() if p.is_file()}
     stem = f"evaluation_{ev.name}"
     files[f"{stem}.json"] = (json.dumps(ev.to_dict(), indent=1) + "\n").encode()
-    try:
-        files[f"{stem}.png"] = evaluation_figure(ev)
-    except ImportError:
-        pass
+    files[f"{stem}.svg"] = evaluation_figure(ev)
     written = write_folder(folder, files, force=True)
     return {k: v for k, v in written.items() if k.startswith(stem)}

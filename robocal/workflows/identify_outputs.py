@@ -1,11 +1,10 @@
-"""Output of `robocal identify dyn.yaml`: result.json, summary.txt, torque_validation.png (measured vs
-predicted torque per recorded joint on the validation window) and, when it can be written, the URDF with
+"""Output of `robocal identify dyn.yaml`: result.json, summary.txt, torque_validation.svg (measured vs
+predicted torque per recorded joint on the validation window, robocal.viz.svg_torques) and, when it can be written, the URDF with
 the identified inertias and friction; written atomically (robocal.io.output_folder.write_folder: an error leaves
 no half-written folder). See docs/dynamics_tiago.md.
 """
 from __future__ import annotations
 
-import io
 import json
 from pathlib import Path
 
@@ -17,6 +16,7 @@ from robocal.workflows.identify import IdentifyResult
 from robocal.workflows.identify_summary import LABELS, findings, summary_text
 from robocal.workflows.identify_urdf import identified_urdf_entry, side_file, torque_units, urdf_of
 from robocal.io.output_folder import write_folder
+from robocal.viz.svg_torques import joint_torques
 
 
 
@@ -72,14 +72,10 @@ def result_dict(res: IdentifyResult, urdf: tuple | None = None) -> dict:
 
 
 def torque_figure(res: IdentifyResult) -> bytes:
-    """PNG: measured and predicted torques per recorded joint on the validation window."""
-    from robocal.viz.plots import joint_torques   # optional dependency (matplotlib): only for a figure
-    units = torque_units(res)
-    buf = io.BytesIO()
-    joint_torques(res.curves["t"], res.curves["measured"], {LABELS[m]: res.curves[m] for m in MODELS}, buf,
-                  [j.replace("_joint", "") for j in res.recorded], units,
-                  title="Held-out window: measured (low-pass filtered) vs predicted torque")
-    return buf.getvalue()
+    """SVG: measured and predicted torques per recorded joint on the validation window."""
+    return joint_torques(res.curves["t"], res.curves["measured"], {LABELS[m]: res.curves[m] for m in MODELS},
+                         [j.replace("_joint", "") for j in res.recorded], torque_units(res),
+                         title="Held-out window: measured (low-pass filtered) vs predicted torque").encode()
 
 
 def write_identification(res: IdentifyResult, out_dir: str | Path, force: bool = False) -> dict[str, Path]:
@@ -91,10 +87,7 @@ def write_identification(res: IdentifyResult, out_dir: str | Path, force: bool =
         files[name] = data
         files[SIDE_FILE] = yaml.safe_dump(side_file(res, name).to_dict(), sort_keys=False).encode()
     if res.curves:
-        try:
-            files["torque_validation.png"] = torque_figure(res)
-        except ImportError:
-            files["summary.txt"] += b"(matplotlib is not installed: no figure)\n"
+        files["torque_validation.svg"] = torque_figure(res)
     return write_folder(out_dir, files, force=force)
 
 

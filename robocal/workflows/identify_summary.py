@@ -3,13 +3,13 @@ before any figure, the held-out figures, and what the constraints cost. See docs
 from __future__ import annotations
 
 import numpy as np
-from scipy.stats import chi2
 
 from robocal.dynamics.constraint_cost import MEASURABLE_COST
 from robocal.dynamics.identified_model import SIDE_FILE
 from robocal.dynamics.identify_log import MODELS, IdentifyResult
 from robocal.dynamics.inertial import parameter_vector
 from robocal.workflows.identify_urdf import identified_urdf_entry, joint_unit, torque_units, urdf_of
+from robocal.dynamics.chi_square import chi2_quantile
 
 LABELS = {"cad": "CAD (URDF)", "ols": "OLS base parameters", "consistent": "physically consistent"}
 
@@ -159,7 +159,7 @@ def findings(res: IdentifyResult) -> list[str]:
     and, without plausibility bounds, the bodies more than MASS_FACTOR from their CAD mass."""
     out = []
     if res.constraint_costs:
-        threshold = float(chi2.ppf(1 - 0.05 / len(res.constraint_costs), 1))
+        threshold = chi2_quantile(1 - 0.05 / len(res.constraint_costs), 1)
         for c in res.constraint_costs:
             if c.cost > threshold:
                 out.append(f"{c.constraint}: the data want otherwise (dropping it lowers the training objective by "
