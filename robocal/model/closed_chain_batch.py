@@ -29,6 +29,7 @@ import pinocchio as pin
 
 from robocal.errors import AssemblyError
 from robocal.model.batch_kinematics import FrameArrays
+from robocal.model.closed_chain_compiled import CompiledPass, numba_wanted
 from robocal.model.closure_groups import closure_groups, closure_state, parameter_rows, with_placements
 from robocal.model.lie_arrays import adjoint_inverse
 from robocal.model.loops import assemble
@@ -58,10 +59,13 @@ class ClosedChainBatch:
     values: (N, n_read) readings in `ms.joint_names` order; warm_starts: sample index -> q (nq,), read for
     the start of each assembly and updated with the solutions (the problem's dict, shared with the
     per-sample path); jacobian: whether frames will be asked for their parameter Jacobians; samples: the
-    samples to assemble (default all); cache: a dict the caller keeps between passes of one problem."""
+    samples to assemble (default all); cache: a dict the caller keeps between passes of one problem;
+    use_numba: the hot loops in numba kernels (robocal.model.closed_chain_compiled: None when numba imports and
+    ROBOCAL_NO_NUMBA is not 1; False: numpy only; True: numba required), same results to rounding."""
 
     def __init__(self, ms, values: np.ndarray, warm_starts: dict, jacobian: bool = True, samples=None,
-                 cache: dict | None = None, tol: float = 1e-12, max_iterations: int = 50):
+                 cache: dict | None = None, tol: float = 1e-12, max_iterations: int = 50,
+                 use_numba: bool | None = None):
         self.ms, self.model, self.loops = ms, ms.model, ms.loops
         cache = {} if cache is None else cache
         if cache.get("robot") is not ms.robot or cache.get("loops") is not ms.loops:
@@ -91,6 +95,9 @@ class ClosedChainBatch:
         self.ccols = self.ccols.astype(int)
         self.positions = np.searchsorted(self.ccols, self.twists.columns)     # padding (n_free) -> len(ccols)
         self.group_frames = [[self._frame_columns(fids) for fids in g.frames] for g in self.groups]
+        self.compiled = (CompiledPass(self.tree, self.groups, self.loops.n_rows, self.solved, self.twists,
+                                      self.group_pairs, self.group_frames, self.positions, len(self.ccols), self.arrow)
+                         if numba_wanted(use_numba) else None)
         neutral = pin.neutral(self.model)
         guesses = np.array([warm_starts.get(i, neutral) for i in self.samples], dtype=float).reshape(n, self.model.nq)
         starts = self._predicted(cache.get("previous"), guesses, warm_starts, tol)
@@ -153,6 +160,8 @@ class ClosedChainBatch:
 
     # ---- assembly --------------------------------------------------------------------------
     def _state(self, q: np.ndarray) -> dict:
+        if self.compiled is not None:
+            return self.compiled.state(q)
         return closure_state(self.tree, self.groups, self.loops.n_rows, self.solved, q)
 
     def _set_actuated(self, q: np.ndarray, actuated: np.ndarray) -> np.ndarray:
@@ -211,7 +220,11 @@ class ClosedChainBatch:
         down: a singular block or S)."""
         ns = A.shape[2]
         plain = A.shape[1] == ns and mu.max() < NEGLIGIBLE_DAMPING
-        if self.arrow is not None:
+        if self.arrow is not None and self.compiled is not None:     # NaN where an elimination breaks down
+            step = self.compiled.newton_step(A, r) if plain else self.compiled.damped_step(A, r, mu)
+            if np.isfinite(step).all():
+                return step
+        elif self.arrow is not None:
             with np.errstate(divide="ignore", invalid="ignore"):
                 try:
                     step = self.arrow.newton_step(A, r) if plain else self.arrow.damped_step(A, r, mu)
@@ -249,9 +262,14 @@ class ClosedChainBatch:
         norm bound on s_min / s_max falls below the threshold; `labels`: the block's sample indices)."""
         square = Cs.shape[1] == Cs.shape[2]
         A = Cs if square else np.swapaxes(Cs, 1, 2) @ Cs
-        inv = self._inverse(A)
-        bound = (1.0 / (np.linalg.norm(A, axis=(1, 2)) * np.linalg.norm(inv, axis=(1, 2))) if inv is not None
-                 else np.zeros(len(A)))
+        inv = None
+        if self.compiled is not None and self.arrow is not None:     # NaN where the elimination breaks down
+            inv, bound = self.compiled.inverse(A)
+            inv = inv if np.isfinite(inv).all() else None
+        if inv is None:
+            inv = self._inverse(A)
+            bound = (1.0 / (np.linalg.norm(A, axis=(1, 2)) * np.linalg.norm(inv, axis=(1, 2))) if inv is not None
+                     else np.zeros(len(A)))
         ratio_bound = bound if square else np.sqrt(bound)       # <= s_min / s_max of C_s
         for i in np.flatnonzero(~(ratio_bound >= SINGULAR_RCOND)):
             s = np.linalg.svd(Cs[i], compute_uv=False)
@@ -281,6 +299,8 @@ class ClosedChainBatch:
 
     def _parameter_rows(self, st: dict) -> np.ndarray:
         """C_theta (n, m, len(ccols)): the closure rows' derivative w.r.t. the free parameters, joints held."""
+        if self.compiled is not None:
+            return self.compiled.parameter_rows(st)
         n, nc = len(st["c"]), len(self.ccols)
         G = self.twists.twists(st["R"], st["p"]) if len(self.twists.active) else None
         pieces = []
@@ -322,7 +342,8 @@ class ClosedChainBatch:
                 Y = (to_local @ self._take("W", s)[:, :, moving]) @ self._take("solver", s)[:, moving]
                 Jb[..., self.ccols] = -(Y @ self._take("C_theta", s))
             if len(supports):
-                G = self.twists.twists(self._take("R", s), self._take("p", s))
+                R_s, p_s = self._take("R", s), self._take("p", s)
+                G = self.compiled.twists_at(R_s, p_s) if self.compiled is not None else self.twists.twists(R_s, p_s)
                 for a in supports:
                     real = self.twists.columns[a] < ms.n_free        # padding columns carry zeros: dropped
                     Jb[..., self.twists.columns[a][real]] += (to_local @ G[:, a])[..., real]

@@ -1,0 +1,179 @@
+"""The batched closed-chain pass's hot loops through the numba kernels (robocal.model.closure_kernels,
+robocal.model.arrow_kernels), when numba is installed (robocal's optional [fast] extra).
+
+`CompiledPass` holds one pass's tables (the tree's joints, the solved coordinates, the active joints' parameter
+blocks, the point closures' anchors and parameter pairs) as flat arrays and offers what ClosedChainBatch needs:
+`state` (tree walk, W, c, C_s), `twists`, `parameter_rows` (C_theta) and the 6-UPS arrow's steps and inverse.
+What the kernels do not cover stays numpy, from the same inputs: closure kinds other than the point (revolute,
+distance, frame rows through closure_groups.group_state / parameter_rows), a C_s without the arrow structure (the
+dense LU in ClosedChainBatch), and every breakdown (NaN from a kernel sends the block to the numpy path).
+
+`numba_wanted(use_numba)`: None uses numba when it imports and the environment variable ROBOCAL_NO_NUMBA is unset
+(or 0); False keeps the numpy path; True requires numba (ImportError without it).
+"""
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+from robocal.model import arrow_kernels, closure_kernels
+from robocal.model.closure_groups import group_state, parameter_rows
+
+
+def numba_wanted(use_numba: bool | None) -> bool:
+    """use_numba, or for None: ROBOCAL_NO_NUMBA is unset (or 0) and numba imports (the kernels are jitted here,
+    on the first closed-chain pass: a few seconds the first time, then loaded from numba's cache)."""
+    if use_numba is None:
+        if os.environ.get("ROBOCAL_NO_NUMBA", "0").strip() not in ("", "0"):
+            return False
+        try:
+            compile_all()
+        except ImportError:
+            return False
+        return True
+    if use_numba:
+        compile_all()
+    return bool(use_numba)
+
+
+def compile_all() -> None:
+    closure_kernels.compile_kernels()
+    arrow_kernels.compile_kernels()
+
+
+def _local_directions(tree, v: np.ndarray):
+    """(owner joints, turning flags, local directions (len(v), 3)) of the velocity coordinates v: a one-dof joint's
+    axis, a free-flyer's or spherical joint's coordinate axis."""
+    v = np.asarray(v, dtype=int)
+    owner = tree.v_owner[v]
+    direction = np.where((tree.v_kind[v] <= 1)[:, None], tree.axis[owner], np.eye(3)[tree.v_dof[v] % 3])
+    return owner.astype(np.int64), tree.v_turning[v].astype(np.bool_), np.ascontiguousarray(direction, dtype=float)
+
+
+class CompiledPass:
+    """One ClosedChainBatch's tables for the kernels. tree: TreeArrays at this pass's placements; groups: its
+    closure groups (with_placements); solved: solved velocity coordinates; twists: TreeTwists; group_pairs,
+    group_frames, positions, nc: ClosedChainBatch's parameter-row tables; arrow: PointArrow or None."""
+
+    def __init__(self, tree, groups, n_rows, solved, twists, group_pairs, group_frames, positions, nc, arrow):
+        self.tree, self.groups, self.n_rows, self.ns = tree, groups, n_rows, len(solved)
+        self.parents = np.asarray(tree.parent_array, dtype=np.int64)
+        self.kinds = np.array([-1] + [closure_kernels.KIND_CODES[k] for k in tree.kinds[1:]], dtype=np.int64)
+        self.idx_q = np.asarray(tree.q_array, dtype=np.int64)
+        self.axis = np.ascontiguousarray(tree.axis, dtype=float)
+        self.placement_R = np.ascontiguousarray(tree.placement_R, dtype=float)
+        self.placement_p = np.ascontiguousarray(tree.placement_p, dtype=float)
+        self.columns = _local_directions(tree, solved)
+        self.twists = twists
+        active = twists.active.astype(np.int64)
+        placed = np.zeros(len(active), dtype=np.bool_)
+        placed[twists.placed] = True
+        offsets = _local_directions(tree, twists.offset_v)
+        width = twists.blocks.shape[2]
+        rows = np.array(twists.offset_rows, dtype=float).reshape(len(twists.offset_v), width)
+        self.twist_tables = (active, placed, self.parents, self.placement_R, self.placement_p,
+                             np.ascontiguousarray(twists.blocks, dtype=float), offsets[0],
+                             np.array(twists.offset_owner, dtype=np.int64), offsets[1], offsets[2], rows)
+        self.points = [self._point_tables(g, pairs, frames, positions, nc) if g.kind == "point" else None
+                       for g, pairs, frames in zip(groups, group_pairs, group_frames)]
+        self.group_pairs, self.group_frames, self.positions, self.nc = group_pairs, group_frames, positions, nc
+        self.arrow = None if arrow is None else (arrow.rows.astype(np.int64), arrow.own.astype(np.int64),
+                                                 arrow.shared.astype(np.int64))
+
+    @staticmethod
+    def _point_tables(g, pairs, frames, positions, nc):
+        """A point group's anchors, rows and masks, and its parameter pairs and anchor-frame columns, flattened
+        over the two sides."""
+        (R1f, p1f), (R2f, p2f) = g.placements
+        anchors = (g.joints[0].astype(np.int64), g.joints[1].astype(np.int64),
+                   np.ascontiguousarray(R1f, dtype=float), np.ascontiguousarray(p1f, dtype=float),
+                   np.ascontiguousarray(R2f, dtype=float), np.ascontiguousarray(p2f, dtype=float),
+                   g.rows.reshape(-1, 3).astype(np.int64))
+        mask = np.ascontiguousarray((g.masks[1] - g.masks[0])[:, 0], dtype=float)
+        side, pk, pa, cols = [], [], [], []
+        for s, (k_index, a_index) in enumerate(pairs):
+            side += [s] * len(k_index)
+            pk.append(k_index)
+            pa.append(a_index)
+            cols.append(np.asarray(positions[a_index], dtype=np.int64).reshape(len(a_index), positions.shape[1]))
+        width = max([c.shape[1] for c in cols] + [1])
+        pair_cols = np.full((sum(len(k) for k in pk), width), nc, dtype=np.int64)
+        if len(pair_cols):
+            stacked = np.concatenate([np.pad(c, ((0, 0), (0, width - c.shape[1])), constant_values=nc) for c in cols])
+            pair_cols[:] = stacked
+        pair = (np.array(side, dtype=np.bool_), np.concatenate(pk).astype(np.int64),
+                np.concatenate(pa).astype(np.int64), pair_cols)
+        fside, fk, fcols, fF = [], [], [], []
+        for s, frame in enumerate(frames):
+            if frame is not None:
+                c, F = frame
+                fside += [s] * len(c)
+                fk.append(np.arange(len(c)))
+                fcols.append(c)
+                fF.append(F)
+        fwidth = max([c.shape[1] for c in fcols] + [1])
+        frame_cols = np.full((len(fside), fwidth), nc, dtype=np.int64)
+        F_all = np.zeros((len(fside), 6, fwidth))
+        at = 0
+        for c, F in zip(fcols, fF):
+            frame_cols[at:at + len(c), :c.shape[1]] = c
+            F_all[at:at + len(c), :, :F.shape[2]] = F
+            at += len(c)
+        frame = (np.array(fside, dtype=np.bool_), np.concatenate(fk).astype(np.int64) if fk else
+                 np.zeros(0, dtype=np.int64), frame_cols, F_all)
+        return anchors, mask, pair, frame
+
+    def state(self, q: np.ndarray) -> dict:
+        """closure_groups.closure_state at q (n, nq): R, p, W, c, Cs."""
+        n, nj = len(q), len(self.parents)
+        R, p, W = np.empty((n, nj, 3, 3)), np.empty((n, nj, 3)), np.empty((n, 6, self.ns))
+        closure_kernels.tree_state(np.ascontiguousarray(q, dtype=float), self.parents, self.kinds, self.idx_q,
+                                   self.axis, self.placement_R, self.placement_p, *self.columns, R, p, W)
+        c, Cs = np.empty((n, self.n_rows)), np.empty((n, self.n_rows, self.ns))
+        for g, point in zip(self.groups, self.points):
+            if point is not None:
+                closure_kernels.point_rows(R, p, W, *point[0], point[1], c, Cs)
+            else:
+                ck, Ck = group_state(g, R, p, W)
+                c[:, g.rows] = ck.reshape(n, -1)
+                Cs[:, g.rows] = Ck.reshape(n, -1, self.ns)
+        return {"R": R, "p": p, "W": W, "c": c, "Cs": Cs}
+
+    def twists_at(self, R: np.ndarray, p: np.ndarray) -> np.ndarray:
+        """TreeTwists.twists: (n, a, 6, c) world twists of the active joints per own parameter column."""
+        G = np.empty((len(R), len(self.twist_tables[0]), 6, self.twist_tables[5].shape[2]))
+        closure_kernels.active_twists(np.ascontiguousarray(R), np.ascontiguousarray(p), *self.twist_tables, G)
+        return G
+
+    def parameter_rows(self, st: dict) -> np.ndarray:
+        """C_theta (n, m, nc): ClosedChainBatch._parameter_rows, point groups in the kernel."""
+        R, p = st["R"], st["p"]
+        n = len(R)
+        G = self.twists_at(R, p) if len(self.twists.active) else np.zeros((n, 0, 6, 1))
+        out = np.zeros((n, self.n_rows, self.nc))
+        for g, point, pairs, frames in zip(self.groups, self.points, self.group_pairs, self.group_frames):
+            if point is not None:
+                closure_kernels.point_parameter_rows(R, p, G, *point[0], *point[2], *point[3], out)
+                continue
+            sides = [(pk, self.positions[pa], G[:, pa]) if len(self.twists.active) and len(pk) else (None,) * 3
+                     for pk, pa in pairs]
+            out[:, g.rows] = parameter_rows(g, R, p, sides, frames, self.nc)
+        return out
+
+    def newton_step(self, Cs: np.ndarray, c: np.ndarray) -> np.ndarray:
+        z = np.empty(c.shape[:1] + Cs.shape[2:])
+        arrow_kernels.arrow_newton(np.ascontiguousarray(Cs), np.ascontiguousarray(c), *self.arrow, z)
+        return z
+
+    def damped_step(self, Cs: np.ndarray, c: np.ndarray, mu: np.ndarray) -> np.ndarray:
+        z = np.empty(c.shape[:1] + Cs.shape[2:])
+        arrow_kernels.arrow_damped(np.ascontiguousarray(Cs), np.ascontiguousarray(c),
+                                   np.ascontiguousarray(mu, dtype=float), *self.arrow, z)
+        return z
+
+    def inverse(self, Cs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(C_s^-1, 1 / (|C_s|_F |C_s^-1|_F)) through the arrow; NaN rows where its shared block is singular."""
+        inv, bound = np.empty((len(Cs), Cs.shape[2], Cs.shape[1])), np.empty(len(Cs))
+        arrow_kernels.arrow_inverse(np.ascontiguousarray(Cs), *self.arrow, inv, bound)
+        return inv, bound

@@ -1,0 +1,250 @@
+"""Optional numba kernels of the batched closed-chain pass: one loop over the samples, the per-sample work inside.
+
+numpy's stacked products cost per small matrix, not per flop (docs/speed.md, "Closed chains"), so the batched
+pass (robocal.model.closed_chain_batch) spends most of its time in call overhead. These kernels do the same
+arithmetic sample by sample in compiled loops, each on any robot the batched path accepts:
+
+- `tree_state`: the tree walk (robocal.model.tree_arrays: revolute, continuous, prismatic, free-flyer,
+  spherical joints) and the solved coordinates' world motion columns W;
+- `point_rows`: the point closures' rows c and C_s (robocal.model.closure_groups' point branch);
+- `active_twists`: the active joints' world twists per parameter column (robocal.model.tree_twists);
+- `point_parameter_rows`: the point closures' C_theta (closure_groups.parameter_rows' point branch);
+- the 6-UPS block eliminations of robocal.model.point_closure_solve are in robocal.model.arrow_kernels.
+
+The functions stay plain Python until `compile_kernels` jits them in place (numba is imported there only, on
+the first batched closed-chain pass: `robocal --version` and open-chain commands never import it). cache=True
+keeps the machine code in __pycache__ for later processes.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+REVOLUTE, CONTINUOUS, PRISMATIC, FREE, SPHERICAL = 0, 1, 2, 3, 4
+KIND_CODES = {"revolute": REVOLUTE, "continuous": CONTINUOUS, "prismatic": PRISMATIC, "free": FREE,
+              "spherical": SPHERICAL}
+
+
+def quaternion_matrix(q, i, out):
+    """Rotation of the unit quaternion q[i:i+4] (x y z w), as lie_arrays.quaternion_matrices."""
+    x, y, z, w = q[i], q[i + 1], q[i + 2], q[i + 3]
+    out[0, 0], out[0, 1], out[0, 2] = 1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)
+    out[1, 0], out[1, 1], out[1, 2] = 2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)
+    out[2, 0], out[2, 1], out[2, 2] = 2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)
+
+
+def tree_state(q, parents, kinds, idx_q, axis, placement_R, placement_p, col_owner, col_turning, col_dir,
+               R, p, W):
+    """World placements R (n, nj, 3, 3), p (n, nj, 3) of every joint at q (n, nq), and W (n, 6, ns): the world
+    twist [v; w] of each solved coordinate (its owner's rotation times its local direction col_dir; a
+    turning coordinate rotates about the owner's origin)."""
+    n, nj, ns = q.shape[0], parents.shape[0], col_owner.shape[0]
+    aR, Rj = np.empty((3, 3)), np.empty((3, 3))
+    ap = np.empty(3)
+    for s in range(n):
+        for a in range(3):
+            p[s, 0, a] = 0.0
+            for b in range(3):
+                R[s, 0, a, b] = 1.0 if a == b else 0.0
+        for j in range(1, nj):
+            par = parents[j]
+            for a in range(3):      # oMi[parent] jointPlacement
+                ap[a] = p[s, par, a]
+                for b in range(3):
+                    ap[a] += R[s, par, a, b] * placement_p[j, b]
+                    acc = 0.0
+                    for c in range(3):
+                        acc += R[s, par, a, c] * placement_R[j, c, b]
+                    aR[a, b] = acc
+            kind, iq = kinds[j], idx_q[j]
+            if kind == REVOLUTE or kind == CONTINUOUS:
+                if kind == REVOLUTE:
+                    co, si = math.cos(q[s, iq]), math.sin(q[s, iq])
+                else:
+                    co, si = q[s, iq], q[s, iq + 1]
+                x, y, z = axis[j, 0], axis[j, 1], axis[j, 2]
+                t = 1.0 - co      # Rodrigues: I + s [a]x + (1 - c) [a]x^2
+                Rj[0, 0], Rj[0, 1], Rj[0, 2] = 1.0 - t * (y * y + z * z), -si * z + t * x * y, si * y + t * x * z
+                Rj[1, 0], Rj[1, 1], Rj[1, 2] = si * z + t * x * y, 1.0 - t * (x * x + z * z), -si * x + t * y * z
+                Rj[2, 0], Rj[2, 1], Rj[2, 2] = -si * y + t * x * z, si * x + t * y * z, 1.0 - t * (x * x + y * y)
+            elif kind == FREE:
+                quaternion_matrix(q[s], iq + 3, Rj)
+            elif kind == SPHERICAL:
+                quaternion_matrix(q[s], iq, Rj)
+            else:
+                for a in range(3):
+                    for b in range(3):
+                        Rj[a, b] = 1.0 if a == b else 0.0
+            for a in range(3):
+                for b in range(3):
+                    R[s, j, a, b] = aR[a, 0] * Rj[0, b] + aR[a, 1] * Rj[1, b] + aR[a, 2] * Rj[2, b]
+                p[s, j, a] = ap[a]
+                if kind == PRISMATIC:
+                    p[s, j, a] += q[s, iq] * (aR[a, 0] * axis[j, 0] + aR[a, 1] * axis[j, 1] + aR[a, 2] * axis[j, 2])
+                elif kind == FREE:
+                    p[s, j, a] += aR[a, 0] * q[s, iq] + aR[a, 1] * q[s, iq + 1] + aR[a, 2] * q[s, iq + 2]
+        for k in range(ns):
+            motion_column(R[s], p[s], col_owner[k], col_turning[k], col_dir[k], W[s], k, 1.0, False)
+
+
+def motion_column(R, p, j, turning, direction, out, k, scale, accumulate):
+    """out[:, k] = (or += when accumulate) scale * the world twist of a coordinate of joint j moving along
+    (turning: about) its local `direction`."""
+    d0 = R[j, 0, 0] * direction[0] + R[j, 0, 1] * direction[1] + R[j, 0, 2] * direction[2]
+    d1 = R[j, 1, 0] * direction[0] + R[j, 1, 1] * direction[1] + R[j, 1, 2] * direction[2]
+    d2 = R[j, 2, 0] * direction[0] + R[j, 2, 1] * direction[1] + R[j, 2, 2] * direction[2]
+    if turning:
+        v0, v1, v2 = p[j, 1] * d2 - p[j, 2] * d1, p[j, 2] * d0 - p[j, 0] * d2, p[j, 0] * d1 - p[j, 1] * d0
+        w0, w1, w2 = d0, d1, d2
+    else:
+        v0, v1, v2, w0, w1, w2 = d0, d1, d2, 0.0, 0.0, 0.0
+    if not accumulate:
+        out[0, k], out[1, k], out[2, k] = scale * v0, scale * v1, scale * v2
+        out[3, k], out[4, k], out[5, k] = scale * w0, scale * w1, scale * w2
+    else:
+        out[0, k] += scale * v0
+        out[1, k] += scale * v1
+        out[2, k] += scale * v2
+        out[3, k] += scale * w0
+        out[4, k] += scale * w1
+        out[5, k] += scale * w2
+
+
+def anchor(R, p, j, fR, fp, k, Ra, pa):
+    """World pose (Ra, pa) of anchor k on joint j: oMi[j] times its placement (fR[k], fp[k])."""
+    for a in range(3):
+        pa[a] = p[j, a] + R[j, a, 0] * fp[k, 0] + R[j, a, 1] * fp[k, 1] + R[j, a, 2] * fp[k, 2]
+        for b in range(3):
+            Ra[a, b] = R[j, a, 0] * fR[k, 0, b] + R[j, a, 1] * fR[k, 1, b] + R[j, a, 2] * fR[k, 2, b]
+
+
+def point_rows(R, p, W, joints1, joints2, R1f, p1f, R2f, p2f, rows, mask, c, Cs):
+    """c = R1^T (p2 - p1) and C_s = [R1^T, p2 x rows of R1^T] W on the solved columns mask (k, ns) != 0 (as
+    closure_groups.closure_state), written into the rows (k, 3) of c (n, m) and Cs (n, m, ns)."""
+    n, k_count, ns = R.shape[0], joints1.shape[0], W.shape[2]
+    R1, R2 = np.empty((3, 3)), np.empty((3, 3))
+    p1, p2 = np.empty(3), np.empty(3)
+    for s in range(n):
+        for k in range(k_count):
+            anchor(R[s], p[s], joints1[k], R1f, p1f, k, R1, p1)
+            anchor(R[s], p[s], joints2[k], R2f, p2f, k, R2, p2)
+            for i in range(3):
+                r = rows[k, i]
+                e0, e1, e2 = R1[0, i], R1[1, i], R1[2, i]        # row i of R1^T
+                c[s, r] = e0 * (p2[0] - p1[0]) + e1 * (p2[1] - p1[1]) + e2 * (p2[2] - p1[2])
+                f0, f1, f2 = p2[1] * e2 - p2[2] * e1, p2[2] * e0 - p2[0] * e2, p2[0] * e1 - p2[1] * e0
+                for col in range(ns):
+                    m = mask[k, col]
+                    if m == 0.0:
+                        Cs[s, r, col] = 0.0
+                    else:
+                        Cs[s, r, col] = m * (e0 * W[s, 0, col] + e1 * W[s, 1, col] + e2 * W[s, 2, col]
+                                             + f0 * W[s, 3, col] + f1 * W[s, 4, col] + f2 * W[s, 5, col])
+
+
+def active_twists(R, p, active, placed, parents, placement_R, placement_p, blocks, offset_owner, offset_active,
+                  offset_turning, offset_dir, offset_rows, G):
+    """G (n, a, 6, c): world twist of each active joint per own parameter column (tree_twists.TreeTwists.twists):
+    Ad(oMi[parent] jointPlacement) blocks[a] for those with placement parameters, plus each offset's motion
+    column times its row."""
+    n, n_active, width = R.shape[0], active.shape[0], blocks.shape[2]
+    aR, ap = np.empty((3, 3)), np.empty(3)
+    for s in range(n):
+        for a in range(n_active):
+            if not placed[a]:
+                for r in range(6):
+                    for col in range(width):
+                        G[s, a, r, col] = 0.0
+                continue
+            j = active[a]
+            par = parents[j]
+            for x in range(3):
+                ap[x] = p[s, par, x]
+                for y in range(3):
+                    ap[x] += R[s, par, x, y] * placement_p[j, y]
+                    aR[x, y] = (R[s, par, x, 0] * placement_R[j, 0, y] + R[s, par, x, 1] * placement_R[j, 1, y]
+                                + R[s, par, x, 2] * placement_R[j, 2, y])
+            for col in range(width):
+                # [v; w] = [aR bv + ap x (aR bw); aR bw]
+                bv0, bv1, bv2 = blocks[a, 0, col], blocks[a, 1, col], blocks[a, 2, col]
+                bw0, bw1, bw2 = blocks[a, 3, col], blocks[a, 4, col], blocks[a, 5, col]
+                w0 = aR[0, 0] * bw0 + aR[0, 1] * bw1 + aR[0, 2] * bw2
+                w1 = aR[1, 0] * bw0 + aR[1, 1] * bw1 + aR[1, 2] * bw2
+                w2 = aR[2, 0] * bw0 + aR[2, 1] * bw1 + aR[2, 2] * bw2
+                G[s, a, 0, col] = aR[0, 0] * bv0 + aR[0, 1] * bv1 + aR[0, 2] * bv2 + ap[1] * w2 - ap[2] * w1
+                G[s, a, 1, col] = aR[1, 0] * bv0 + aR[1, 1] * bv1 + aR[1, 2] * bv2 + ap[2] * w0 - ap[0] * w2
+                G[s, a, 2, col] = aR[2, 0] * bv0 + aR[2, 1] * bv1 + aR[2, 2] * bv2 + ap[0] * w1 - ap[1] * w0
+                G[s, a, 3, col], G[s, a, 4, col], G[s, a, 5, col] = w0, w1, w2
+        for t in range(offset_owner.shape[0]):
+            for col in range(width):
+                if offset_rows[t, col] != 0.0:
+                    motion_column(R[s], p[s], offset_owner[t], offset_turning[t], offset_dir[t], G[s, offset_active[t]],
+                                  col, offset_rows[t, col], True)
+
+
+def point_parameter_rows(R, p, G, joints1, joints2, R1f, p1f, R2f, p2f, rows, pair_side, pair_k, pair_a, pair_cols,
+                         frame_side, frame_k, frame_cols, F, out):
+    """Adds the point closures' C_theta into out (n, m, nc) (closure_groups.parameter_rows, point branch):
+    a pair (anchor k of side 0 or 1, active joint a supporting it, its columns pair_cols among nc, padded with
+    nc) adds -+ R1^T (Uv + Uw x p2) of U = G[a]; an anchor frame's own placement columns (frame_cols, LOCAL
+    twists F (rows, 6, f)) add cp x Fw - Fv (side 0, cp = c_k) or R1^T R2 Fv (side 1)."""
+    n, nc, width = R.shape[0], out.shape[2], pair_cols.shape[1]
+    k_count = joints1.shape[0]
+    R1, R2 = np.empty((k_count, 3, 3)), np.empty((3, 3))
+    p1, p2, cp = np.empty((k_count, 3)), np.empty((k_count, 3)), np.empty(3)
+    for s in range(n):
+        for k in range(k_count):
+            anchor(R[s], p[s], joints1[k], R1f, p1f, k, R1[k], p1[k])
+            anchor(R[s], p[s], joints2[k], R2f, p2f, k, R2, p2[k])
+        for t in range(pair_k.shape[0]):
+            k, a = pair_k[t], pair_a[t]
+            sign = 1.0 if pair_side[t] else -1.0
+            for col in range(width):
+                target = pair_cols[t, col]
+                if target >= nc:
+                    continue
+                v0 = G[s, a, 0, col] + G[s, a, 4, col] * p2[k, 2] - G[s, a, 5, col] * p2[k, 1]
+                v1 = G[s, a, 1, col] + G[s, a, 5, col] * p2[k, 0] - G[s, a, 3, col] * p2[k, 2]
+                v2 = G[s, a, 2, col] + G[s, a, 3, col] * p2[k, 1] - G[s, a, 4, col] * p2[k, 0]
+                for i in range(3):
+                    out[s, rows[k, i], target] += sign * (R1[k, 0, i] * v0 + R1[k, 1, i] * v1 + R1[k, 2, i] * v2)
+        for t in range(frame_k.shape[0]):
+            k = frame_k[t]
+            if frame_side[t]:
+                anchor(R[s], p[s], joints2[k], R2f, p2f, k, R2, p2[k])
+            for b in range(3):     # side 0: cp = c_k = R1^T (p2 - p1)
+                cp[b] = (R1[k, 0, b] * (p2[k, 0] - p1[k, 0]) + R1[k, 1, b] * (p2[k, 1] - p1[k, 1])
+                         + R1[k, 2, b] * (p2[k, 2] - p1[k, 2]))
+            for col in range(frame_cols.shape[1]):
+                target = frame_cols[t, col]
+                if target >= nc:
+                    continue
+                for i in range(3):
+                    if frame_side[t]:      # R1^T R2 Fv
+                        acc = 0.0
+                        for b in range(3):
+                            e = R1[k, 0, i] * R2[0, b] + R1[k, 1, i] * R2[1, b] + R1[k, 2, i] * R2[2, b]
+                            acc += e * F[t, b, col]
+                    else:                   # cp x Fw - Fv
+                        i1, i2 = (i + 1) % 3, (i + 2) % 3
+                        acc = cp[i1] * F[t, 3 + i2, col] - cp[i2] * F[t, 3 + i1, col] - F[t, i, col]
+                    out[s, rows[k, i], target] += acc
+
+
+KERNELS = ("quaternion_matrix", "motion_column", "anchor", "tree_state", "point_rows", "active_twists",
+           "point_parameter_rows")
+_compiled = False
+
+
+def compile_kernels():
+    """jit the kernels in place (callees first: a jitted caller needs them jitted); numba is imported here only.
+    Raises ImportError without numba."""
+    global _compiled
+    if not _compiled:
+        from numba import njit
+        jit = njit(cache=True, error_model="numpy")    # numpy error model: 1/0 gives inf or NaN, as numpy
+        names = globals()
+        for name in KERNELS:
+            names[name] = jit(getattr(names[name], "py_func", names[name]))
+        _compiled = True
