@@ -48,9 +48,8 @@ def solve_small(S, b, x):
 def arrow_parts(Cs, s, rows, own, normal, P):
     """Closure k's normal n_k = a1 x a2 and the left inverse P_k (2, 3) of its own columns A_k = [a1 a2]."""
     for k in range(rows.shape[0]):
-        a1, a2 = np.empty(3), np.empty(3)
-        for i in range(3):
-            a1[i], a2[i] = Cs[s, rows[k, i], own[k, 0]], Cs[s, rows[k, i], own[k, 1]]
+        a1 = (Cs[s, rows[k, 0], own[k, 0]], Cs[s, rows[k, 1], own[k, 0]], Cs[s, rows[k, 2], own[k, 0]])
+        a2 = (Cs[s, rows[k, 0], own[k, 1]], Cs[s, rows[k, 1], own[k, 1]], Cs[s, rows[k, 2], own[k, 1]])
         n0, n1, n2 = a1[1] * a2[2] - a1[2] * a2[1], a1[2] * a2[0] - a1[0] * a2[2], a1[0] * a2[1] - a1[1] * a2[0]
         size = n0 * n0 + n1 * n1 + n2 * n2
         normal[k, 0], normal[k, 1], normal[k, 2] = n0, n1, n2

@@ -24,6 +24,8 @@ Robots with joint relations, tilts, compliance or backlash parameters keep the p
 """
 from __future__ import annotations
 
+import operator
+
 import numpy as np
 import pinocchio as pin
 
@@ -98,9 +100,16 @@ class ClosedChainBatch:
         self.compiled = (CompiledPass(self.tree, self.groups, self.loops.n_rows, self.solved, self.twists,
                                       self.group_pairs, self.group_frames, self.positions, len(self.ccols), self.arrow)
                          if numba_wanted(use_numba) else None)
-        neutral = pin.neutral(self.model)
-        guesses = np.array([warm_starts.get(i, neutral) for i in self.samples], dtype=float).reshape(n, self.model.nq)
-        starts = self._predicted(cache.get("previous"), guesses, warm_starts, tol)
+        previous = cache.get("previous")
+        held = list(map(warm_starts.get, self.samples.tolist()))       # the warm starts (C-level loops: n is large)
+        same = (np.fromiter(map(operator.is_, held, previous["rows"]), dtype=bool, count=n)
+                if previous is not None and len(previous["rows"]) == n else np.zeros(n, dtype=bool))
+        if n and same.all():      # all still the previous pass's solutions: its stacked array, no row-by-row copy
+            guesses = previous["q"].copy()
+        else:
+            neutral = pin.neutral(self.model)
+            guesses = np.array([neutral if h is None else h for h in held], dtype=float).reshape(n, self.model.nq)
+        starts = self._predicted(previous, guesses, same, tol)
         # per block of CHUNK samples: joint placements R, p, solved-coordinate columns W, C_s^-1, C_theta (kept
         # per block: one array for all samples, allocated up front, makes every temporary fault in fresh pages)
         self.blocks, solutions = [], []
@@ -112,26 +121,27 @@ class ClosedChainBatch:
                                 "C_theta": self._parameter_rows(st) if jacobian else None})
             solutions.append(q)
         self.q = np.concatenate(solutions) if solutions else guesses
-        rows = list(self.q.copy())     # handed out as warm starts: never written to again
+        solution = self.q.copy()
+        rows = list(solution)     # handed out as warm starts: never written to again
         warm_starts.update(zip(self.samples.tolist(), rows))
         if jacobian:      # the next pass predicts its starts from these sensitivities (_predicted)
             cache["previous"] = {"x": ms.params.free_values(), "n_free": ms.n_free, "ccols": self.ccols,
-                                 "samples": self.samples, "rows": rows,
+                                 "samples": self.samples, "rows": rows, "q": solution,
                                  "blocks": [(b["solver"], b["C_theta"]) for b in self.blocks]}
 
-    def _predicted(self, previous: dict | None, guesses: np.ndarray, warm_starts: dict, tol: float) -> np.ndarray:
+    def _predicted(self, previous: dict | None, guesses: np.ndarray, same: np.ndarray, tol: float) -> np.ndarray:
         """Where to start each sample's Newton: its warm start moved by the first-order change of the solution,
         dq_s = -C_s^-1 C_theta dtheta, with the previous Jacobian pass's C_s^-1 and C_theta (which it kept). Only
         for samples whose warm start is still that pass's solution, and moves below MAX_PREDICTION: the error left is
         second order in dtheta, so a parameter step needs one Newton step instead of two. Where the closures move
         by less than sqrt(tol), one quadratic step from the warm start reaches tol anyway: the plain
-        start is kept (and the assembly's rounding with it). The per-sample fallback starts from the warm start."""
+        start is kept (and the assembly's rounding with it). The per-sample fallback starts from the warm start.
+        same: whether each sample's warm start is still the previous pass's solution."""
         ms = self.ms
         if (previous is None or previous["n_free"] != ms.n_free or not np.array_equal(previous["ccols"], self.ccols)
                 or not np.array_equal(previous["samples"], self.samples)):
             return guesses
         dx = (ms.params.free_values() - previous["x"])[self.ccols]
-        same = np.array([warm_starts.get(i) is r for i, r in zip(self.samples.tolist(), previous["rows"])], dtype=bool)
         if not dx.any() or not same.any():
             return guesses
         dc = [C_theta @ dx for _, C_theta in previous["blocks"]]        # first-order change of the closures
@@ -140,7 +150,10 @@ class ClosedChainBatch:
         dq[~same | small | (np.abs(dq).max(axis=1) > MAX_PREDICTION)] = 0.0
         v = np.zeros((self.n, self.model.nv))
         v[:, self.solved] = dq
-        return self.tree.integrate(guesses, v)
+        return self._integrate(guesses, v)
+
+    def _integrate(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        return self.compiled.integrate(q, v) if self.compiled is not None else self.tree.integrate(q, v)
 
     def _take(self, key: str, samples: np.ndarray, joint=None) -> np.ndarray:
         """The per-sample array `key` at the samples (and one joint of it), gathered from the blocks."""
@@ -203,7 +216,7 @@ class ClosedChainBatch:
             last_cost[go] = mu
             v = np.zeros((len(go), self.model.nv))
             v[:, self.solved] = step
-            q[go] = self.tree.integrate(q[go], v)
+            q[go] = self._integrate(q[go], v)
         failed |= moving
         if failed.any():    # the per-sample solver (line search, its error messages) from the warm start
             data = self.model.createData()

@@ -19,6 +19,7 @@ import numpy as np
 
 from robocal.model import arrow_kernels, closure_kernels
 from robocal.model.closure_groups import group_state, parameter_rows
+from robocal.model.tree_arrays import SMALL_ANGLE
 
 
 def numba_wanted(use_numba: bool | None) -> bool:
@@ -61,6 +62,7 @@ class CompiledPass:
         self.parents = np.asarray(tree.parent_array, dtype=np.int64)
         self.kinds = np.array([-1] + [closure_kernels.KIND_CODES[k] for k in tree.kinds[1:]], dtype=np.int64)
         self.idx_q = np.asarray(tree.q_array, dtype=np.int64)
+        self.idx_v = np.asarray(tree.idx_v, dtype=np.int64)
         self.axis = np.ascontiguousarray(tree.axis, dtype=float)
         self.placement_R = np.ascontiguousarray(tree.placement_R, dtype=float)
         self.placement_p = np.ascontiguousarray(tree.placement_p, dtype=float)
@@ -139,6 +141,13 @@ class CompiledPass:
                 c[:, g.rows] = ck.reshape(n, -1)
                 Cs[:, g.rows] = Ck.reshape(n, -1, self.ns)
         return {"R": R, "p": p, "W": W, "c": c, "Cs": Cs}
+
+    def integrate(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """TreeArrays.integrate: q (+) v for the stack."""
+        out = np.empty_like(q, dtype=float)
+        closure_kernels.integrate(np.ascontiguousarray(q, dtype=float), np.ascontiguousarray(v, dtype=float),
+                                  self.kinds, self.idx_q, self.idx_v, SMALL_ANGLE, out)
+        return out
 
     def twists_at(self, R: np.ndarray, p: np.ndarray) -> np.ndarray:
         """TreeTwists.twists: (n, a, 6, c) world twists of the active joints per own parameter column."""

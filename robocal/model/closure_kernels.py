@@ -5,7 +5,7 @@ pass (robocal.model.closed_chain_batch) spends most of its time in call overhead
 arithmetic sample by sample in compiled loops, each on any robot the batched path accepts:
 
 - `tree_state`: the tree walk (robocal.model.tree_arrays: revolute, continuous, prismatic, free-flyer,
-  spherical joints) and the solved coordinates' world motion columns W;
+  spherical joints) and the solved coordinates' world motion columns W; `integrate`: q (+) v;
 - `point_rows`: the point closures' rows c and C_s (robocal.model.closure_groups' point branch);
 - `active_twists`: the active joints' world twists per parameter column (robocal.model.tree_twists);
 - `point_parameter_rows`: the point closures' C_theta (closure_groups.parameter_rows' point branch);
@@ -86,6 +86,52 @@ def tree_state(q, parents, kinds, idx_q, axis, placement_R, placement_p, col_own
                     p[s, j, a] += aR[a, 0] * q[s, iq] + aR[a, 1] * q[s, iq + 1] + aR[a, 2] * q[s, iq + 2]
         for k in range(ns):
             motion_column(R[s], p[s], col_owner[k], col_turning[k], col_dir[k], W[s], k, 1.0, False)
+
+
+def integrate(q, v, kinds, idx_q, idx_v, small_angle, out):
+    """out = q (+) v (n, nq) for the stack, as tree_arrays.TreeArrays.integrate (Pinocchio's integrate, v LOCAL):
+    one-dof joints add, a continuous joint turns its (cos, sin), a free-flyer moves by exp6 and a spherical
+    joint by exp3 (Taylor coefficients below small_angle)."""
+    n, nj = q.shape[0], kinds.shape[0]
+    Rq = np.empty((3, 3))
+    for s in range(n):
+        for i in range(q.shape[1]):
+            out[s, i] = q[s, i]
+        for j in range(1, nj):
+            kind, iq, iv = kinds[j], idx_q[j], idx_v[j]
+            if kind == REVOLUTE or kind == PRISMATIC:
+                out[s, iq] = q[s, iq] + v[s, iv]
+            elif kind == CONTINUOUS:
+                co, si = math.cos(v[s, iv]), math.sin(v[s, iv])
+                out[s, iq] = q[s, iq] * co - q[s, iq + 1] * si
+                out[s, iq + 1] = q[s, iq + 1] * co + q[s, iq] * si
+            else:
+                iw, iquat = (iv + 3, iq + 3) if kind == FREE else (iv, iq)
+                w0, w1, w2 = v[s, iw], v[s, iw + 1], v[s, iw + 2]
+                theta = math.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
+                if kind == FREE:        # translation R V(w) v_lin
+                    x0, x1, x2 = v[s, iv], v[s, iv + 1], v[s, iv + 2]
+                    if theta < small_angle:
+                        a, b = 0.5 - theta ** 2 / 24.0, 1.0 / 6.0 - theta ** 2 / 120.0
+                    else:
+                        a = (1.0 - math.cos(theta)) / (theta * theta)
+                        b = (theta - math.sin(theta)) / (theta * theta * theta)
+                    c0, c1, c2 = w1 * x2 - w2 * x1, w2 * x0 - w0 * x2, w0 * x1 - w1 * x0
+                    d0, d1, d2 = w1 * c2 - w2 * c1, w2 * c0 - w0 * c2, w0 * c1 - w1 * c0
+                    t0, t1, t2 = x0 + a * c0 + b * d0, x1 + a * c1 + b * d1, x2 + a * c2 + b * d2
+                    quaternion_matrix(q[s], iquat, Rq)
+                    for r in range(3):
+                        out[s, iq + r] = q[s, iq + r] + (Rq[r, 0] * t0 + Rq[r, 1] * t1 + Rq[r, 2] * t2)
+                k = 0.5 - theta ** 2 / 48.0 if theta < small_angle else math.sin(0.5 * theta) / theta
+                b0, b1, b2, b3 = k * w0, k * w1, k * w2, math.cos(0.5 * theta)
+                a0, a1, a2, a3 = q[s, iquat], q[s, iquat + 1], q[s, iquat + 2], q[s, iquat + 3]
+                e0 = a3 * b0 + a0 * b3 + a1 * b2 - a2 * b1
+                e1 = a3 * b1 - a0 * b2 + a1 * b3 + a2 * b0
+                e2 = a3 * b2 + a0 * b1 - a1 * b0 + a2 * b3
+                e3 = a3 * b3 - a0 * b0 - a1 * b1 - a2 * b2
+                norm = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2 + e3 * e3)
+                out[s, iquat], out[s, iquat + 1] = e0 / norm, e1 / norm
+                out[s, iquat + 2], out[s, iquat + 3] = e2 / norm, e3 / norm
 
 
 def motion_column(R, p, j, turning, direction, out, k, scale, accumulate):
@@ -232,7 +278,7 @@ def point_parameter_rows(R, p, G, joints1, joints2, R1f, p1f, R2f, p2f, rows, pa
                     out[s, rows[k, i], target] += acc
 
 
-KERNELS = ("quaternion_matrix", "motion_column", "anchor", "tree_state", "point_rows", "active_twists",
+KERNELS = ("quaternion_matrix", "motion_column", "anchor", "tree_state", "integrate", "point_rows", "active_twists",
            "point_parameter_rows")
 _compiled = False
 
