@@ -26,9 +26,11 @@ KIND_CODES = {"revolute": REVOLUTE, "continuous": CONTINUOUS, "prismatic": PRISM
               "spherical": SPHERICAL}
 
 
-def quaternion_matrix(q, i, out):
-    """Rotation of the unit quaternion q[i:i+4] (x y z w), as lie_arrays.quaternion_matrices."""
-    x, y, z, w = q[i], q[i + 1], q[i + 2], q[i + 3]
+def quaternion_matrix(q, s, i, out):
+    """Rotation of the unit quaternion q[s, i:i+4] (x y z w), as lie_arrays.quaternion_matrices. (The helpers take
+    whole arrays and indices: a view passed to a numba function costs reference counting, more than the
+    arithmetic here.)"""
+    x, y, z, w = q[s, i], q[s, i + 1], q[s, i + 2], q[s, i + 3]
     out[0, 0], out[0, 1], out[0, 2] = 1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)
     out[1, 0], out[1, 1], out[1, 2] = 2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)
     out[2, 0], out[2, 1], out[2, 2] = 2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)
@@ -69,9 +71,9 @@ def tree_state(q, parents, kinds, idx_q, axis, placement_R, placement_p, col_own
                 Rj[1, 0], Rj[1, 1], Rj[1, 2] = si * z + t * x * y, 1.0 - t * (x * x + z * z), -si * x + t * y * z
                 Rj[2, 0], Rj[2, 1], Rj[2, 2] = -si * y + t * x * z, si * x + t * y * z, 1.0 - t * (x * x + y * y)
             elif kind == FREE:
-                quaternion_matrix(q[s], iq + 3, Rj)
+                quaternion_matrix(q, s, iq + 3, Rj)
             elif kind == SPHERICAL:
-                quaternion_matrix(q[s], iq, Rj)
+                quaternion_matrix(q, s, iq, Rj)
             else:
                 for a in range(3):
                     for b in range(3):
@@ -85,7 +87,8 @@ def tree_state(q, parents, kinds, idx_q, axis, placement_R, placement_p, col_own
                 elif kind == FREE:
                     p[s, j, a] += aR[a, 0] * q[s, iq] + aR[a, 1] * q[s, iq + 1] + aR[a, 2] * q[s, iq + 2]
         for k in range(ns):
-            motion_column(R[s], p[s], col_owner[k], col_turning[k], col_dir[k], W[s], k, 1.0, False)
+            W[s, 0, k], W[s, 1, k], W[s, 2, k], W[s, 3, k], W[s, 4, k], W[s, 5, k] = motion_column(
+                R, p, s, col_owner[k], col_turning[k], col_dir, k)
 
 
 def integrate(q, v, kinds, idx_q, idx_v, small_angle, out):
@@ -119,7 +122,7 @@ def integrate(q, v, kinds, idx_q, idx_v, small_angle, out):
                     c0, c1, c2 = w1 * x2 - w2 * x1, w2 * x0 - w0 * x2, w0 * x1 - w1 * x0
                     d0, d1, d2 = w1 * c2 - w2 * c1, w2 * c0 - w0 * c2, w0 * c1 - w1 * c0
                     t0, t1, t2 = x0 + a * c0 + b * d0, x1 + a * c1 + b * d1, x2 + a * c2 + b * d2
-                    quaternion_matrix(q[s], iquat, Rq)
+                    quaternion_matrix(q, s, iquat, Rq)
                     for r in range(3):
                         out[s, iq + r] = q[s, iq + r] + (Rq[r, 0] * t0 + Rq[r, 1] * t1 + Rq[r, 2] * t2)
                 k = 0.5 - theta ** 2 / 48.0 if theta < small_angle else math.sin(0.5 * theta) / theta
@@ -134,52 +137,42 @@ def integrate(q, v, kinds, idx_q, idx_v, small_angle, out):
                 out[s, iquat + 2], out[s, iquat + 3] = e2 / norm, e3 / norm
 
 
-def motion_column(R, p, j, turning, direction, out, k, scale, accumulate):
-    """out[:, k] = (or += when accumulate) scale * the world twist of a coordinate of joint j moving along
-    (turning: about) its local `direction`."""
-    d0 = R[j, 0, 0] * direction[0] + R[j, 0, 1] * direction[1] + R[j, 0, 2] * direction[2]
-    d1 = R[j, 1, 0] * direction[0] + R[j, 1, 1] * direction[1] + R[j, 1, 2] * direction[2]
-    d2 = R[j, 2, 0] * direction[0] + R[j, 2, 1] * direction[1] + R[j, 2, 2] * direction[2]
+def motion_column(R, p, s, j, turning, direction, k):
+    """(v, w) as six floats: the world twist of a coordinate of joint j at sample s moving along (turning: about)
+    its local direction[k]."""
+    d0 = R[s, j, 0, 0] * direction[k, 0] + R[s, j, 0, 1] * direction[k, 1] + R[s, j, 0, 2] * direction[k, 2]
+    d1 = R[s, j, 1, 0] * direction[k, 0] + R[s, j, 1, 1] * direction[k, 1] + R[s, j, 1, 2] * direction[k, 2]
+    d2 = R[s, j, 2, 0] * direction[k, 0] + R[s, j, 2, 1] * direction[k, 1] + R[s, j, 2, 2] * direction[k, 2]
     if turning:
-        v0, v1, v2 = p[j, 1] * d2 - p[j, 2] * d1, p[j, 2] * d0 - p[j, 0] * d2, p[j, 0] * d1 - p[j, 1] * d0
-        w0, w1, w2 = d0, d1, d2
-    else:
-        v0, v1, v2, w0, w1, w2 = d0, d1, d2, 0.0, 0.0, 0.0
-    if not accumulate:
-        out[0, k], out[1, k], out[2, k] = scale * v0, scale * v1, scale * v2
-        out[3, k], out[4, k], out[5, k] = scale * w0, scale * w1, scale * w2
-    else:
-        out[0, k] += scale * v0
-        out[1, k] += scale * v1
-        out[2, k] += scale * v2
-        out[3, k] += scale * w0
-        out[4, k] += scale * w1
-        out[5, k] += scale * w2
+        return (p[s, j, 1] * d2 - p[s, j, 2] * d1, p[s, j, 2] * d0 - p[s, j, 0] * d2, p[s, j, 0] * d1 - p[s, j, 1] * d0,
+                d0, d1, d2)
+    return d0, d1, d2, 0.0, 0.0, 0.0
 
 
-def anchor(R, p, j, fR, fp, k, Ra, pa):
-    """World pose (Ra, pa) of anchor k on joint j: oMi[j] times its placement (fR[k], fp[k])."""
+def anchor(R, p, s, j, fR, fp, k, Ra, pa, o):
+    """World pose (Ra[o], pa[o]) of anchor k on joint j at sample s: oMi[j] times its placement (fR[k], fp[k])."""
     for a in range(3):
-        pa[a] = p[j, a] + R[j, a, 0] * fp[k, 0] + R[j, a, 1] * fp[k, 1] + R[j, a, 2] * fp[k, 2]
+        pa[o, a] = p[s, j, a] + R[s, j, a, 0] * fp[k, 0] + R[s, j, a, 1] * fp[k, 1] + R[s, j, a, 2] * fp[k, 2]
         for b in range(3):
-            Ra[a, b] = R[j, a, 0] * fR[k, 0, b] + R[j, a, 1] * fR[k, 1, b] + R[j, a, 2] * fR[k, 2, b]
+            Ra[o, a, b] = R[s, j, a, 0] * fR[k, 0, b] + R[s, j, a, 1] * fR[k, 1, b] + R[s, j, a, 2] * fR[k, 2, b]
 
 
 def point_rows(R, p, W, joints1, joints2, R1f, p1f, R2f, p2f, rows, mask, c, Cs):
     """c = R1^T (p2 - p1) and C_s = [R1^T, p2 x rows of R1^T] W on the solved columns mask (k, ns) != 0 (as
     closure_groups.closure_state), written into the rows (k, 3) of c (n, m) and Cs (n, m, ns)."""
     n, k_count, ns = R.shape[0], joints1.shape[0], W.shape[2]
-    R1, R2 = np.empty((3, 3)), np.empty((3, 3))
-    p1, p2 = np.empty(3), np.empty(3)
+    R1, R2 = np.empty((1, 3, 3)), np.empty((1, 3, 3))
+    p1, p2 = np.empty((1, 3)), np.empty((1, 3))
     for s in range(n):
         for k in range(k_count):
-            anchor(R[s], p[s], joints1[k], R1f, p1f, k, R1, p1)
-            anchor(R[s], p[s], joints2[k], R2f, p2f, k, R2, p2)
+            anchor(R, p, s, joints1[k], R1f, p1f, k, R1, p1, 0)
+            anchor(R, p, s, joints2[k], R2f, p2f, k, R2, p2, 0)
+            x0, x1, x2 = p2[0, 0], p2[0, 1], p2[0, 2]
             for i in range(3):
                 r = rows[k, i]
-                e0, e1, e2 = R1[0, i], R1[1, i], R1[2, i]        # row i of R1^T
-                c[s, r] = e0 * (p2[0] - p1[0]) + e1 * (p2[1] - p1[1]) + e2 * (p2[2] - p1[2])
-                f0, f1, f2 = p2[1] * e2 - p2[2] * e1, p2[2] * e0 - p2[0] * e2, p2[0] * e1 - p2[1] * e0
+                e0, e1, e2 = R1[0, 0, i], R1[0, 1, i], R1[0, 2, i]        # row i of R1^T
+                c[s, r] = e0 * (x0 - p1[0, 0]) + e1 * (x1 - p1[0, 1]) + e2 * (x2 - p1[0, 2])
+                f0, f1, f2 = x1 * e2 - x2 * e1, x2 * e0 - x0 * e2, x0 * e1 - x1 * e0
                 for col in range(ns):
                     m = mask[k, col]
                     if m == 0.0:
@@ -223,10 +216,11 @@ def active_twists(R, p, active, placed, parents, placement_R, placement_p, block
                 G[s, a, 2, col] = aR[2, 0] * bv0 + aR[2, 1] * bv1 + aR[2, 2] * bv2 + ap[0] * w1 - ap[1] * w0
                 G[s, a, 3, col], G[s, a, 4, col], G[s, a, 5, col] = w0, w1, w2
         for t in range(offset_owner.shape[0]):
+            twist = motion_column(R, p, s, offset_owner[t], offset_turning[t], offset_dir, t)
+            a = offset_active[t]
             for col in range(width):
-                if offset_rows[t, col] != 0.0:
-                    motion_column(R[s], p[s], offset_owner[t], offset_turning[t], offset_dir[t], G[s, offset_active[t]],
-                                  col, offset_rows[t, col], True)
+                for r in range(6):
+                    G[s, a, r, col] += twist[r] * offset_rows[t, col]
 
 
 def point_parameter_rows(R, p, G, joints1, joints2, R1f, p1f, R2f, p2f, rows, pair_side, pair_k, pair_a, pair_cols,
@@ -237,12 +231,12 @@ def point_parameter_rows(R, p, G, joints1, joints2, R1f, p1f, R2f, p2f, rows, pa
     twists F (rows, 6, f)) add cp x Fw - Fv (side 0, cp = c_k) or R1^T R2 Fv (side 1)."""
     n, nc, width = R.shape[0], out.shape[2], pair_cols.shape[1]
     k_count = joints1.shape[0]
-    R1, R2 = np.empty((k_count, 3, 3)), np.empty((3, 3))
+    R1, R2 = np.empty((k_count, 3, 3)), np.empty((k_count, 3, 3))
     p1, p2, cp = np.empty((k_count, 3)), np.empty((k_count, 3)), np.empty(3)
     for s in range(n):
         for k in range(k_count):
-            anchor(R[s], p[s], joints1[k], R1f, p1f, k, R1[k], p1[k])
-            anchor(R[s], p[s], joints2[k], R2f, p2f, k, R2, p2[k])
+            anchor(R, p, s, joints1[k], R1f, p1f, k, R1, p1, k)
+            anchor(R, p, s, joints2[k], R2f, p2f, k, R2, p2, k)
         for t in range(pair_k.shape[0]):
             k, a = pair_k[t], pair_a[t]
             sign = 1.0 if pair_side[t] else -1.0
@@ -257,8 +251,6 @@ def point_parameter_rows(R, p, G, joints1, joints2, R1f, p1f, R2f, p2f, rows, pa
                     out[s, rows[k, i], target] += sign * (R1[k, 0, i] * v0 + R1[k, 1, i] * v1 + R1[k, 2, i] * v2)
         for t in range(frame_k.shape[0]):
             k = frame_k[t]
-            if frame_side[t]:
-                anchor(R[s], p[s], joints2[k], R2f, p2f, k, R2, p2[k])
             for b in range(3):     # side 0: cp = c_k = R1^T (p2 - p1)
                 cp[b] = (R1[k, 0, b] * (p2[k, 0] - p1[k, 0]) + R1[k, 1, b] * (p2[k, 1] - p1[k, 1])
                          + R1[k, 2, b] * (p2[k, 2] - p1[k, 2]))
@@ -270,7 +262,7 @@ def point_parameter_rows(R, p, G, joints1, joints2, R1f, p1f, R2f, p2f, rows, pa
                     if frame_side[t]:      # R1^T R2 Fv
                         acc = 0.0
                         for b in range(3):
-                            e = R1[k, 0, i] * R2[0, b] + R1[k, 1, i] * R2[1, b] + R1[k, 2, i] * R2[2, b]
+                            e = R1[k, 0, i] * R2[k, 0, b] + R1[k, 1, i] * R2[k, 1, b] + R1[k, 2, i] * R2[k, 2, b]
                             acc += e * F[t, b, col]
                     else:                   # cp x Fw - Fv
                         i1, i2 = (i + 1) % 3, (i + 2) % 3
