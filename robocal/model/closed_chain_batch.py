@@ -86,20 +86,20 @@ class ClosedChainBatch:
         self.n = n = len(self.samples)
         self.actuated = (values[self.samples] + ms.offsets)[:, ms.actuated_order]
         self.groups = with_placements(cache["groups"], self.model)
-        self.twists = TreeTwists(ms, self.tree)
-        self.group_pairs = [[self.twists.pairs(js) for js in g.joints] for g in self.groups]
-        # the few columns the closures' parameter rows can hold: tree joints' placements and offsets
-        # and the anchor frames' placements
-        self.tcols = self.twists.free_columns
         anchors = [f for g in self.groups for side in g.frames for f in side]
-        framed = [np.any(ms.P_frame[f] != 0.0, axis=0) for f in anchors if f in ms.P_frame]
-        self.ccols = np.union1d(self.tcols, np.flatnonzero(np.any(framed, axis=0)) if framed else [])
-        self.ccols = self.ccols.astype(int)
-        self.positions = np.searchsorted(self.ccols, self.twists.columns)     # padding (n_free) -> len(ccols)
-        self.group_frames = [[self._frame_columns(fids) for fids in g.frames] for g in self.groups]
-        self.compiled = (CompiledPass(self.tree, self.groups, self.loops.n_rows, self.solved, self.twists,
-                                      self.group_pairs, self.group_frames, self.positions, len(self.ccols), self.arrow)
-                         if numba_wanted(use_numba) else None)
+        # the parameters' structure: the same arrays as the last pass's (the usual case within one problem)
+        # reuse its tables, only the placements are read again
+        key = (ms.P_joint, ms.P_offset, [ms.P_frame.get(f) for f in anchors], numba_wanted(use_numba))
+        saved = cache.get("structure")
+        if saved is not None and _same_structure(saved["key"], key):
+            self.twists = saved["twists"].at_tree(self.tree)
+            self.group_pairs, self.ccols, self.positions, self.group_frames = saved["tables"]
+            self.compiled = saved["compiled"] and saved["compiled"].at_placements(self.tree, self.groups)
+        else:
+            self._parameter_tables(ms, anchors, key[3])
+            kept = (key[0].copy(), key[1].copy(), [None if f is None else f.copy() for f in key[2]], key[3])
+            cache["structure"] = {"key": kept, "twists": self.twists, "compiled": self.compiled,
+                                  "tables": (self.group_pairs, self.ccols, self.positions, self.group_frames)}
         previous = cache.get("previous")
         held = list(map(warm_starts.get, self.samples.tolist()))       # the warm starts (C-level loops: n is large)
         same = (np.fromiter(map(operator.is_, held, previous["rows"]), dtype=bool, count=n)
@@ -128,6 +128,22 @@ class ClosedChainBatch:
             cache["previous"] = {"x": ms.params.free_values(), "n_free": ms.n_free, "ccols": self.ccols,
                                  "samples": self.samples, "rows": rows, "q": solution,
                                  "blocks": [(b["solver"], b["C_theta"]) for b in self.blocks]}
+
+    def _parameter_tables(self, ms, anchors: list, use_numba: bool) -> None:
+        """The parameters' structure as the pass uses it: active joints (TreeTwists), the closures' supporting pairs,
+        the compact columns ccols, and the kernels' tables."""
+        self.twists = TreeTwists(ms, self.tree)
+        self.group_pairs = [[self.twists.pairs(js) for js in g.joints] for g in self.groups]
+        # the few columns the closures' parameter rows can hold: tree joints' placements and offsets
+        # and the anchor frames' placements
+        framed = [np.any(ms.P_frame[f] != 0.0, axis=0) for f in anchors if f in ms.P_frame]
+        self.ccols = np.union1d(self.twists.free_columns, np.flatnonzero(np.any(framed, axis=0)) if framed else [])
+        self.ccols = self.ccols.astype(int)
+        self.positions = np.searchsorted(self.ccols, self.twists.columns)     # padding (n_free) -> len(ccols)
+        self.group_frames = [[self._frame_columns(fids) for fids in g.frames] for g in self.groups]
+        self.compiled = (CompiledPass(self.tree, self.groups, self.loops.n_rows, self.solved, self.twists,
+                                      self.group_pairs, self.group_frames, self.positions, len(self.ccols), self.arrow)
+                         if use_numba else None)
 
     def _predicted(self, previous: dict | None, guesses: np.ndarray, same: np.ndarray, tol: float) -> np.ndarray:
         """Where to start each sample's Newton: its warm start moved by the first-order change of the solution,
@@ -365,6 +381,13 @@ class ClosedChainBatch:
         if fid in ms.P_frame:
             J += ms.P_frame[fid]
         return FrameArrays(R, p, R0, p0, J, np.eye(6))
+
+
+def _same_structure(a: tuple, b: tuple) -> bool:
+    """Whether two passes' (P_joint, P_offset, anchor frames' P_frame, numba) keys hold equal arrays."""
+    same = lambda x, y: x is y or (x is not None and y is not None and np.array_equal(x, y))     # noqa: E731
+    return (a[3] == b[3] and same(a[0], b[0]) and same(a[1], b[1]) and len(a[2]) == len(b[2])
+            and all(same(x, y) for x, y in zip(a[2], b[2])))
 
 
 def _scatter(state: dict, sub: dict, idx: np.ndarray) -> dict:

@@ -13,6 +13,7 @@ dense LU in ClosedChainBatch), and every breakdown (NaN from a kernel sends the 
 """
 from __future__ import annotations
 
+import copy
 import os
 
 import numpy as np
@@ -58,14 +59,13 @@ class CompiledPass:
     group_frames, positions, nc: ClosedChainBatch's parameter-row tables; arrow: PointArrow or None."""
 
     def __init__(self, tree, groups, n_rows, solved, twists, group_pairs, group_frames, positions, nc, arrow):
-        self.tree, self.groups, self.n_rows, self.ns = tree, groups, n_rows, len(solved)
+        self.n_rows, self.ns = n_rows, len(solved)
+        self._read_placements(tree, groups)
         self.parents = np.asarray(tree.parent_array, dtype=np.int64)
         self.kinds = np.array([-1] + [closure_kernels.KIND_CODES[k] for k in tree.kinds[1:]], dtype=np.int64)
         self.idx_q = np.asarray(tree.q_array, dtype=np.int64)
         self.idx_v = np.asarray(tree.idx_v, dtype=np.int64)
         self.axis = np.ascontiguousarray(tree.axis, dtype=float)
-        self.placement_R = np.ascontiguousarray(tree.placement_R, dtype=float)
-        self.placement_p = np.ascontiguousarray(tree.placement_p, dtype=float)
         self.columns = _local_directions(tree, solved)
         self.twists = twists
         active = twists.active.astype(np.int64)
@@ -74,8 +74,7 @@ class CompiledPass:
         offsets = _local_directions(tree, twists.offset_v)
         width = twists.blocks.shape[2]
         rows = np.array(twists.offset_rows, dtype=float).reshape(len(twists.offset_v), width)
-        self.twist_tables = (active, placed, self.parents, self.placement_R, self.placement_p,
-                             np.ascontiguousarray(twists.blocks, dtype=float), offsets[0],
+        self.twist_tables = (active, placed, self.parents, np.ascontiguousarray(twists.blocks, dtype=float), offsets[0],
                              np.array(twists.offset_owner, dtype=np.int64), offsets[1], offsets[2], rows)
         self.points = [self._point_tables(g, pairs, frames, positions, nc) if g.kind == "point" else None
                        for g, pairs, frames in zip(groups, group_pairs, group_frames)]
@@ -83,15 +82,24 @@ class CompiledPass:
         self.arrow = None if arrow is None else (arrow.rows.astype(np.int64), arrow.own.astype(np.int64),
                                                  arrow.shared.astype(np.int64))
 
+    def _read_placements(self, tree, groups) -> None:
+        self.tree, self.groups = tree, groups
+        self.placement_R = np.ascontiguousarray(tree.placement_R, dtype=float)
+        self.placement_p = np.ascontiguousarray(tree.placement_p, dtype=float)
+        self.anchors = [tuple(np.ascontiguousarray(a, dtype=float) for side in g.placements for a in side)
+                        if g.kind == "point" else None for g in groups]
+
+    def at_placements(self, tree, groups) -> "CompiledPass":
+        """These tables with another pass's joint and anchor placements (same structure and parameter blocks)."""
+        out = copy.copy(self)
+        out._read_placements(tree, groups)
+        return out
+
     @staticmethod
     def _point_tables(g, pairs, frames, positions, nc):
-        """A point group's anchors, rows and masks, and its parameter pairs and anchor-frame columns, flattened
-        over the two sides."""
-        (R1f, p1f), (R2f, p2f) = g.placements
-        anchors = (g.joints[0].astype(np.int64), g.joints[1].astype(np.int64),
-                   np.ascontiguousarray(R1f, dtype=float), np.ascontiguousarray(p1f, dtype=float),
-                   np.ascontiguousarray(R2f, dtype=float), np.ascontiguousarray(p2f, dtype=float),
-                   g.rows.reshape(-1, 3).astype(np.int64))
+        """A point group's anchor joints and rows, its masks, and its parameter pairs and anchor-frame columns,
+        flattened over the two sides."""
+        anchors = (g.joints[0].astype(np.int64), g.joints[1].astype(np.int64), g.rows.reshape(-1, 3).astype(np.int64))
         mask = np.ascontiguousarray((g.masks[1] - g.masks[0])[:, 0], dtype=float)
         side, pk, pa, cols = [], [], [], []
         for s, (k_index, a_index) in enumerate(pairs):
@@ -133,9 +141,9 @@ class CompiledPass:
         closure_kernels.tree_state(np.ascontiguousarray(q, dtype=float), self.parents, self.kinds, self.idx_q,
                                    self.axis, self.placement_R, self.placement_p, *self.columns, R, p, W)
         c, Cs = np.empty((n, self.n_rows)), np.empty((n, self.n_rows, self.ns))
-        for g, point in zip(self.groups, self.points):
+        for g, point, placed in zip(self.groups, self.points, self.anchors):
             if point is not None:
-                closure_kernels.point_rows(R, p, W, *point[0], point[1], c, Cs)
+                closure_kernels.point_rows(R, p, W, *point[0][:2], *placed, point[0][2], point[1], c, Cs)
             else:
                 ck, Ck = group_state(g, R, p, W)
                 c[:, g.rows] = ck.reshape(n, -1)
@@ -151,8 +159,10 @@ class CompiledPass:
 
     def twists_at(self, R: np.ndarray, p: np.ndarray) -> np.ndarray:
         """TreeTwists.twists: (n, a, 6, c) world twists of the active joints per own parameter column."""
-        G = np.empty((len(R), len(self.twist_tables[0]), 6, self.twist_tables[5].shape[2]))
-        closure_kernels.active_twists(np.ascontiguousarray(R), np.ascontiguousarray(p), *self.twist_tables, G)
+        G = np.empty((len(R), len(self.twist_tables[0]), 6, self.twist_tables[3].shape[2]))
+        active, placed, parents = self.twist_tables[:3]
+        closure_kernels.active_twists(np.ascontiguousarray(R), np.ascontiguousarray(p), active, placed, parents,
+                                      self.placement_R, self.placement_p, *self.twist_tables[3:], G)
         return G
 
     def parameter_rows(self, st: dict) -> np.ndarray:
@@ -161,9 +171,11 @@ class CompiledPass:
         n = len(R)
         G = self.twists_at(R, p) if len(self.twists.active) else np.zeros((n, 0, 6, 1))
         out = np.zeros((n, self.n_rows, self.nc))
-        for g, point, pairs, frames in zip(self.groups, self.points, self.group_pairs, self.group_frames):
+        for g, point, placed, pairs, frames in zip(self.groups, self.points, self.anchors, self.group_pairs,
+                                                   self.group_frames):
             if point is not None:
-                closure_kernels.point_parameter_rows(R, p, G, *point[0], *point[2], *point[3], out)
+                closure_kernels.point_parameter_rows(R, p, G, *point[0][:2], *placed, point[0][2], *point[2], *point[3],
+                                                     out)
                 continue
             sides = [(pk, self.positions[pa], G[:, pa]) if len(self.twists.active) and len(pk) else (None,) * 3
                      for pk, pa in pairs]
