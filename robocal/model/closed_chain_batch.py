@@ -160,9 +160,13 @@ class ClosedChainBatch:
         dx = (ms.params.free_values() - previous["x"])[self.ccols]
         if not dx.any() or not same.any():
             return guesses
-        dc = [C_theta @ dx for _, C_theta in previous["blocks"]]        # first-order change of the closures
-        dq = np.concatenate([-np.einsum("nsm,nm->ns", solver, d) for (solver, _), d in zip(previous["blocks"], dc)])
-        small = np.abs(np.concatenate(dc)).max(axis=1) < np.sqrt(tol)     # one Newton step from the start will do
+        if self.compiled is not None:
+            dq, dc_max = self.compiled.predicted_moves(previous["blocks"], dx)
+        else:
+            dc = [C_theta @ dx for _, C_theta in previous["blocks"]]        # first-order change of the closures
+            dq = np.concatenate([-np.einsum("nsm,nm->ns", solver, d) for (solver, _), d in zip(previous["blocks"], dc)])
+            dc_max = np.abs(np.concatenate(dc)).max(axis=1)
+        small = dc_max < np.sqrt(tol)     # one Newton step from the start will do
         dq[~same | small | (np.abs(dq).max(axis=1) > MAX_PREDICTION)] = 0.0
         v = np.zeros((self.n, self.model.nv))
         v[:, self.solved] = dq
@@ -366,9 +370,13 @@ class ClosedChainBatch:
             block = slice(start, min(start + CHUNK, len(samples)))
             s = samples[block]
             Jb = J[block]
-            to_local = adjoint_inverse(R0[block], p0[block])
-            if len(moving):     # the frame's solved joints' columns times their rows of C_s^-1
-                Y = (to_local @ self._take("W", s)[:, :, moving]) @ self._take("solver", s)[:, moving]
+            to_local = adjoint_inverse(R0[block], p0[block]) if len(supports) or ms.has_base_params else None
+            if len(moving) and self.compiled is not None:
+                self.compiled.frame_solved_columns(R0[block], p0[block], self._take("W", s), moving,
+                                                   self._take("solver", s), self._take("C_theta", s), self.ccols, Jb)
+            elif len(moving):     # the frame's solved joints' columns times their rows of C_s^-1
+                to_local_m = adjoint_inverse(R0[block], p0[block]) if to_local is None else to_local
+                Y = (to_local_m @ self._take("W", s)[:, :, moving]) @ self._take("solver", s)[:, moving]
                 Jb[..., self.ccols] = -(Y @ self._take("C_theta", s))
             if len(supports):
                 R_s, p_s = self._take("R", s), self._take("p", s)

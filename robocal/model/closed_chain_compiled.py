@@ -18,7 +18,7 @@ import os
 
 import numpy as np
 
-from robocal.model import arrow_kernels, closure_kernels
+from robocal.model import arrow_kernels, closure_kernels, sensitivity_kernels
 from robocal.model.closure_groups import group_state, parameter_rows
 from robocal.model.tree_arrays import SMALL_ANGLE
 
@@ -42,6 +42,7 @@ def numba_wanted(use_numba: bool | None) -> bool:
 def compile_all() -> None:
     closure_kernels.compile_kernels()
     arrow_kernels.compile_kernels()
+    sensitivity_kernels.compile_kernels()
 
 
 def _local_directions(tree, v: np.ndarray):
@@ -198,3 +199,22 @@ class CompiledPass:
         inv, bound = np.empty((len(Cs), Cs.shape[2], Cs.shape[1])), np.empty(len(Cs))
         arrow_kernels.arrow_inverse(np.ascontiguousarray(Cs), *self.arrow, inv, bound)
         return inv, bound
+
+    @staticmethod
+    def frame_solved_columns(R0, p0, W, moving, solver, C_theta, ccols, J) -> None:
+        """J[:, :, ccols] = -Ad(M^-1) W[:, :, moving] solver[:, moving] C_theta (ClosedChainBatch.frame)."""
+        sensitivity_kernels.frame_solved_columns(
+            np.ascontiguousarray(R0), np.ascontiguousarray(p0), np.ascontiguousarray(W),
+            np.asarray(moving, dtype=np.int64), np.ascontiguousarray(solver), np.ascontiguousarray(C_theta),
+            np.asarray(ccols, dtype=np.int64), J)
+
+    @staticmethod
+    def predicted_moves(blocks, dx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(-C_s^-1 C_theta dx (n, ns), max |C_theta dx| (n,)) over the previous pass's (solver, C_theta) blocks."""
+        moves, tops = [], []
+        for solver, C_theta in blocks:
+            dq, top = np.empty(solver.shape[:2]), np.empty(len(solver))
+            sensitivity_kernels.predicted_moves(solver, C_theta, np.ascontiguousarray(dx, dtype=float), dq, top)
+            moves.append(dq)
+            tops.append(top)
+        return np.concatenate(moves), np.concatenate(tops)
