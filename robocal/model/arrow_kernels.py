@@ -148,7 +148,7 @@ def arrow_inverse(Cs, rows, own, shared, inv, bound):
     n, k_count, ns, m = Cs.shape[0], rows.shape[0], shared.shape[0], Cs.shape[1]
     normal, P = np.empty((k_count, 3)), np.empty((k_count, 2, 3))
     S, eye, Sinv = np.empty((k_count, ns)), np.empty((ns, ns)), np.empty((ns, ns))
-    PB = np.empty((k_count, 2, ns))
+    PB, H, X = np.empty((k_count, 2, ns)), np.empty((ns, m)), np.empty(m)
     for s in range(n):
         arrow_parts(Cs, s, rows, own, normal, P)
         for k in range(k_count):
@@ -167,20 +167,27 @@ def arrow_inverse(Cs, rows, own, shared, inv, bound):
                     inv[s, a, b] = np.nan
             bound[s] = 0.0
             continue
-        for j in range(ns):             # H = S^-1 N
+        for j in range(ns):             # H = S^-1 N, kept whole in H (ns, m) for the own rows' products
+            for col in range(m):
+                H[j, col] = 0.0
             for k in range(k_count):
                 for i in range(3):
-                    inv[s, shared[j], rows[k, i]] = Sinv[j, k] * normal[k, i]
+                    H[j, rows[k, i]] = Sinv[j, k] * normal[k, i]
+            for col in range(m):
+                inv[s, shared[j], col] = H[j, col]
         for k in range(k_count):       # X_k = -(P_k B_k) H, plus P_k on the closure's own rows
             for a in range(2):
+                for col in range(m):
+                    X[col] = 0.0
+                for j in range(ns):
+                    f = PB[k, a, j]
+                    for col in range(m):
+                        X[col] -= f * H[j, col]
+                for i in range(3):
+                    X[rows[k, i]] += P[k, a, i]
                 row = own[k, a]
                 for col in range(m):
-                    acc = 0.0
-                    for j in range(ns):
-                        acc -= PB[k, a, j] * inv[s, shared[j], col]
-                    inv[s, row, col] = acc
-                for i in range(3):
-                    inv[s, row, rows[k, i]] += P[k, a, i]
+                    inv[s, row, col] = X[col]
         a_norm, i_norm = 0.0, 0.0
         for a in range(m):
             for b in range(Cs.shape[2]):

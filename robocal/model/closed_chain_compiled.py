@@ -67,6 +67,8 @@ class CompiledPass:
         self.idx_q = np.asarray(tree.q_array, dtype=np.int64)
         self.idx_v = np.asarray(tree.idx_v, dtype=np.int64)
         self.axis = np.ascontiguousarray(tree.axis, dtype=float)
+        one_hot = (np.abs(tree.axis).sum(axis=1) == 1.0) & (tree.axis.max(axis=1) == 1.0)
+        self.aligned = np.where(one_hot, np.argmax(tree.axis, axis=1), -1).astype(np.int64)
         self.columns = _local_directions(tree, solved)
         self.twists = twists
         active = twists.active.astype(np.int64)
@@ -87,6 +89,7 @@ class CompiledPass:
         self.tree, self.groups = tree, groups
         self.placement_R = np.ascontiguousarray(tree.placement_R, dtype=float)
         self.placement_p = np.ascontiguousarray(tree.placement_p, dtype=float)
+        self.unrotated = np.asarray(tree.unrotated, dtype=np.bool_)
         self.anchors = [tuple(np.ascontiguousarray(a, dtype=float) for side in g.placements for a in side)
                         if g.kind == "point" else None for g in groups]
 
@@ -101,7 +104,13 @@ class CompiledPass:
         """A point group's anchor joints and rows, its masks, and its parameter pairs and anchor-frame columns,
         flattened over the two sides."""
         anchors = (g.joints[0].astype(np.int64), g.joints[1].astype(np.int64), g.rows.reshape(-1, 3).astype(np.int64))
-        mask = np.ascontiguousarray((g.masks[1] - g.masks[0])[:, 0], dtype=float)
+        signs = (g.masks[1] - g.masks[0])[:, 0]          # (k, ns): +-1 where a coordinate moves the closure
+        width = max(int((signs != 0.0).sum(axis=1).max(initial=0)), 1)
+        mask_cols, mask_values = np.full((len(signs), width), -1, dtype=np.int64), np.zeros((len(signs), width))
+        for k, row in enumerate(signs):
+            nonzero = np.flatnonzero(row)
+            mask_cols[k, :len(nonzero)], mask_values[k, :len(nonzero)] = nonzero, row[nonzero]
+        mask = (mask_cols, mask_values)
         side, pk, pa, cols = [], [], [], []
         for s, (k_index, a_index) in enumerate(pairs):
             side += [s] * len(k_index)
@@ -140,11 +149,12 @@ class CompiledPass:
         n, nj = len(q), len(self.parents)
         R, p, W = np.empty((n, nj, 3, 3)), np.empty((n, nj, 3)), np.empty((n, 6, self.ns))
         closure_kernels.tree_state(np.ascontiguousarray(q, dtype=float), self.parents, self.kinds, self.idx_q,
-                                   self.axis, self.placement_R, self.placement_p, *self.columns, R, p, W)
+                                   self.axis, self.aligned, self.unrotated, self.placement_R, self.placement_p,
+                                   *self.columns, R, p, W)
         c, Cs = np.empty((n, self.n_rows)), np.empty((n, self.n_rows, self.ns))
         for g, point, placed in zip(self.groups, self.points, self.anchors):
             if point is not None:
-                closure_kernels.point_rows(R, p, W, *point[0][:2], *placed, point[0][2], point[1], c, Cs)
+                closure_kernels.point_rows(R, p, W, *point[0][:2], *placed, point[0][2], *point[1], c, Cs)
             else:
                 ck, Ck = group_state(g, R, p, W)
                 c[:, g.rows] = ck.reshape(n, -1)

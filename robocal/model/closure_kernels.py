@@ -36,11 +36,12 @@ def quaternion_matrix(q, s, i, out):
     out[2, 0], out[2, 1], out[2, 2] = 2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)
 
 
-def tree_state(q, parents, kinds, idx_q, axis, placement_R, placement_p, col_owner, col_turning, col_dir,
-               R, p, W):
+def tree_state(q, parents, kinds, idx_q, axis, aligned, unrotated, placement_R, placement_p, col_owner, col_turning,
+               col_dir, R, p, W):
     """World placements R (n, nj, 3, 3), p (n, nj, 3) of every joint at q (n, nq), and W (n, 6, ns): the world
     twist [v; w] of each solved coordinate (its owner's rotation times its local direction col_dir; a
-    turning coordinate rotates about the owner's origin)."""
+    turning coordinate rotates about the owner's origin). aligned[j]: the coordinate axis a revolute or
+    continuous joint turns about (-1: another axis); unrotated[j]: its placement's rotation is the identity."""
     n, nj, ns = q.shape[0], parents.shape[0], col_owner.shape[0]
     aR, Rj = np.empty((3, 3)), np.empty((3, 3))
     ap = np.empty(3)
@@ -55,16 +56,26 @@ def tree_state(q, parents, kinds, idx_q, axis, placement_R, placement_p, col_own
                 ap[a] = p[s, par, a]
                 for b in range(3):
                     ap[a] += R[s, par, a, b] * placement_p[j, b]
-                    acc = 0.0
-                    for c in range(3):
-                        acc += R[s, par, a, c] * placement_R[j, c, b]
-                    aR[a, b] = acc
+                    if unrotated[j]:
+                        aR[a, b] = R[s, par, a, b]
+                    else:
+                        aR[a, b] = (R[s, par, a, 0] * placement_R[j, 0, b] + R[s, par, a, 1] * placement_R[j, 1, b]
+                                    + R[s, par, a, 2] * placement_R[j, 2, b])
             kind, iq = kinds[j], idx_q[j]
             if kind == REVOLUTE or kind == CONTINUOUS:
                 if kind == REVOLUTE:
                     co, si = math.cos(q[s, iq]), math.sin(q[s, iq])
                 else:
                     co, si = q[s, iq], q[s, iq + 1]
+                if aligned[j] >= 0:     # about a coordinate axis: two columns of aR turn into each other
+                    x = aligned[j]
+                    i, k = (x + 1) % 3, (x + 2) % 3
+                    for a in range(3):
+                        R[s, j, a, i] = co * aR[a, i] + si * aR[a, k]
+                        R[s, j, a, k] = co * aR[a, k] - si * aR[a, i]
+                        R[s, j, a, x] = aR[a, x]
+                        p[s, j, a] = ap[a]
+                    continue
                 x, y, z = axis[j, 0], axis[j, 1], axis[j, 2]
                 t = 1.0 - co      # Rodrigues: I + s [a]x + (1 - c) [a]x^2
                 Rj[0, 0], Rj[0, 1], Rj[0, 2] = 1.0 - t * (y * y + z * z), -si * z + t * x * y, si * y + t * x * z
@@ -157,9 +168,10 @@ def anchor(R, p, s, j, fR, fp, k, Ra, pa, o):
             Ra[o, a, b] = R[s, j, a, 0] * fR[k, 0, b] + R[s, j, a, 1] * fR[k, 1, b] + R[s, j, a, 2] * fR[k, 2, b]
 
 
-def point_rows(R, p, W, joints1, joints2, R1f, p1f, R2f, p2f, rows, mask, c, Cs):
-    """c = R1^T (p2 - p1) and C_s = [R1^T, p2 x rows of R1^T] W on the solved columns mask (k, ns) != 0 (as
-    closure_groups.closure_state), written into the rows (k, 3) of c (n, m) and Cs (n, m, ns)."""
+def point_rows(R, p, W, joints1, joints2, R1f, p1f, R2f, p2f, rows, mask_cols, mask_values, c, Cs):
+    """c = R1^T (p2 - p1) and C_s = [R1^T, p2 x rows of R1^T] W on the solved columns that move the closure
+    (mask_cols (k, w), padded with -1, with their signs mask_values; as closure_groups.closure_state), written
+    into the rows (k, 3) of c (n, m) and Cs (n, m, ns)."""
     n, k_count, ns = R.shape[0], joints1.shape[0], W.shape[2]
     R1, R2 = np.empty((1, 3, 3)), np.empty((1, 3, 3))
     p1, p2 = np.empty((1, 3)), np.empty((1, 3))
@@ -174,12 +186,13 @@ def point_rows(R, p, W, joints1, joints2, R1f, p1f, R2f, p2f, rows, mask, c, Cs)
                 c[s, r] = e0 * (x0 - p1[0, 0]) + e1 * (x1 - p1[0, 1]) + e2 * (x2 - p1[0, 2])
                 f0, f1, f2 = x1 * e2 - x2 * e1, x2 * e0 - x0 * e2, x0 * e1 - x1 * e0
                 for col in range(ns):
-                    m = mask[k, col]
-                    if m == 0.0:
-                        Cs[s, r, col] = 0.0
-                    else:
-                        Cs[s, r, col] = m * (e0 * W[s, 0, col] + e1 * W[s, 1, col] + e2 * W[s, 2, col]
-                                             + f0 * W[s, 3, col] + f1 * W[s, 4, col] + f2 * W[s, 5, col])
+                    Cs[s, r, col] = 0.0
+                for t in range(mask_cols.shape[1]):
+                    col = mask_cols[k, t]
+                    if col < 0:
+                        break
+                    Cs[s, r, col] = mask_values[k, t] * (e0 * W[s, 0, col] + e1 * W[s, 1, col] + e2 * W[s, 2, col]
+                                                         + f0 * W[s, 3, col] + f1 * W[s, 4, col] + f2 * W[s, 5, col])
 
 
 def active_twists(R, p, active, placed, parents, placement_R, placement_p, blocks, offset_owner, offset_active,
@@ -232,7 +245,7 @@ def point_parameter_rows(R, p, G, joints1, joints2, R1f, p1f, R2f, p2f, rows, pa
     n, nc, width = R.shape[0], out.shape[2], pair_cols.shape[1]
     k_count = joints1.shape[0]
     R1, R2 = np.empty((k_count, 3, 3)), np.empty((k_count, 3, 3))
-    p1, p2, cp = np.empty((k_count, 3)), np.empty((k_count, 3)), np.empty(3)
+    p1, p2, cp, R12 = np.empty((k_count, 3)), np.empty((k_count, 3)), np.empty(3), np.empty((3, 3))
     for s in range(n):
         for k in range(k_count):
             anchor(R, p, s, joints1[k], R1f, p1f, k, R1, p1, k)
@@ -251,6 +264,10 @@ def point_parameter_rows(R, p, G, joints1, joints2, R1f, p1f, R2f, p2f, rows, pa
                     out[s, rows[k, i], target] += sign * (R1[k, 0, i] * v0 + R1[k, 1, i] * v1 + R1[k, 2, i] * v2)
         for t in range(frame_k.shape[0]):
             k = frame_k[t]
+            if frame_side[t]:      # R1^T R2, once per anchor frame
+                for i in range(3):
+                    for b in range(3):
+                        R12[i, b] = R1[k, 0, i] * R2[k, 0, b] + R1[k, 1, i] * R2[k, 1, b] + R1[k, 2, i] * R2[k, 2, b]
             for b in range(3):     # side 0: cp = c_k = R1^T (p2 - p1)
                 cp[b] = (R1[k, 0, b] * (p2[k, 0] - p1[k, 0]) + R1[k, 1, b] * (p2[k, 1] - p1[k, 1])
                          + R1[k, 2, b] * (p2[k, 2] - p1[k, 2]))
@@ -260,10 +277,7 @@ def point_parameter_rows(R, p, G, joints1, joints2, R1f, p1f, R2f, p2f, rows, pa
                     continue
                 for i in range(3):
                     if frame_side[t]:      # R1^T R2 Fv
-                        acc = 0.0
-                        for b in range(3):
-                            e = R1[k, 0, i] * R2[k, 0, b] + R1[k, 1, i] * R2[k, 1, b] + R1[k, 2, i] * R2[k, 2, b]
-                            acc += e * F[t, b, col]
+                        acc = R12[i, 0] * F[t, 0, col] + R12[i, 1] * F[t, 1, col] + R12[i, 2] * F[t, 2, col]
                     else:                   # cp x Fw - Fv
                         i1, i2 = (i + 1) % 3, (i + 2) % 3
                         acc = cp[i1] * F[t, 3 + i2, col] - cp[i2] * F[t, 3 + i1, col] - F[t, i, col]
