@@ -150,3 +150,16 @@ def test_unreachable_sample_raises_the_same_error_on_both_paths(monkeypatch):
         messages.append(str(error.value))
     assert messages[0] == messages[1]
 
+
+
+def test_parameter_rows_kernel_matches_numpy(tmp_path):
+    """C_theta of the kernels (kept at its possibly-nonzero entries) equals the numpy rows on the Stewart (point
+    closures: every parameter kind the closures see) and on the linkage (revolute and distance rows: numpy
+    inside the compiled pass)."""
+    for problem in (stewart_problem(n=6), linkage_problem(tmp_path, n=6)):
+        problem.evaluate()          # closed warm starts
+        numba_batch, numpy_batch = _batch(problem, True), _batch(problem, False)
+        q = numpy_batch.q
+        compiled = numba_batch.compiled.dense_parameter_rows(numba_batch._parameter_rows(numba_batch._state(q)))
+        reference = numpy_batch._parameter_rows(numpy_batch._state(q))
+        assert np.abs(reference).max() > 0.1 and _relative(compiled, reference) < RTOL

@@ -127,7 +127,8 @@ class ClosedChainBatch:
         if jacobian:      # the next pass predicts its starts from these sensitivities (_predicted)
             cache["previous"] = {"x": ms.params.free_values(), "n_free": ms.n_free, "ccols": self.ccols,
                                  "samples": self.samples, "rows": rows, "q": solution,
-                                 "blocks": [(b["solver"], b["C_theta"]) for b in self.blocks]}
+                                 "blocks": [(b["solver"], b["C_theta"]) for b in self.blocks],
+                                 "compiled": self.compiled is not None}     # C_theta (n, nnz) there
 
     def _parameter_tables(self, ms, anchors: list, use_numba: bool) -> None:
         """The parameters' structure as the pass uses it: active joints (TreeTwists), the closures' supporting pairs,
@@ -155,7 +156,8 @@ class ClosedChainBatch:
         same: whether each sample's warm start is still the previous pass's solution."""
         ms = self.ms
         if (previous is None or previous["n_free"] != ms.n_free or not np.array_equal(previous["ccols"], self.ccols)
-                or not np.array_equal(previous["samples"], self.samples)):
+                or not np.array_equal(previous["samples"], self.samples)
+                or previous["compiled"] != (self.compiled is not None)):
             return guesses
         dx = (ms.params.free_values() - previous["x"])[self.ccols]
         if not dx.any() or not same.any():
@@ -331,7 +333,8 @@ class ClosedChainBatch:
         return cols, F
 
     def _parameter_rows(self, st: dict) -> np.ndarray:
-        """C_theta (n, m, len(ccols)): the closure rows' derivative w.r.t. the free parameters, joints held."""
+        """C_theta (n, m, len(ccols)): the closure rows' derivative w.r.t. the free parameters, joints held; with the
+        kernels (n, nnz), its entries that can be nonzero (CompiledPass.parameter_rows)."""
         if self.compiled is not None:
             return self.compiled.parameter_rows(st)
         n, nc = len(st["c"]), len(self.ccols)

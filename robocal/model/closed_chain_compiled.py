@@ -82,8 +82,37 @@ class CompiledPass:
         self.points = [self._point_tables(g, pairs, frames, positions, nc) if g.kind == "point" else None
                        for g, pairs, frames in zip(groups, group_pairs, group_frames)]
         self.group_pairs, self.group_frames, self.positions, self.nc = group_pairs, group_frames, positions, nc
+        self._pattern()
         self.arrow = None if arrow is None else (arrow.rows.astype(np.int64), arrow.own.astype(np.int64),
                                                  arrow.shared.astype(np.int64))
+
+    def _pattern(self) -> None:
+        """The entries of C_theta (m x nc) that can be nonzero, the same at every sample: (entry_row, entry_col), and
+        per point group the entry each (pair or anchor frame, row, column) adds to (-1: padding); a group of another
+        kind holds all its rows' columns (`dense`). C_theta is kept as (n, nnz) in this path."""
+        entries: dict = {}
+
+        def entry_table(cols, rows_of):      # cols (T, c) among nc, padded with nc; rows_of (T, 3)
+            out = np.full(cols.shape[:1] + (3,) + cols.shape[1:], -1, dtype=np.int64)
+            for t, i, c in np.ndindex(out.shape):
+                if cols[t, c] < self.nc:
+                    out[t, i, c] = entries.setdefault((int(rows_of[t, i]), int(cols[t, c])), len(entries))
+            return out
+
+        self.dense = []
+        for g, point in zip(self.groups, self.points):
+            if point is None:
+                self.dense.append(np.array([entries.setdefault((int(r), c), len(entries)) for r in g.rows
+                                            for c in range(self.nc)], dtype=np.int64))
+                continue
+            rows = point[0][2]
+            side, pk, pa, pair_cols = point[2]
+            fside, fk, frame_cols, F = point[3]
+            point[2] = (side, pk, pa, entry_table(pair_cols, rows[pk]))
+            point[3] = (fside, fk, entry_table(frame_cols, rows[fk]), F)
+            self.dense.append(None)
+        pattern = np.array(list(entries), dtype=np.int64).reshape(-1, 2)
+        self.entry_row, self.entry_col = np.ascontiguousarray(pattern[:, 0]), np.ascontiguousarray(pattern[:, 1])
 
     def _read_placements(self, tree, groups) -> None:
         self.tree, self.groups = tree, groups
@@ -142,7 +171,7 @@ class CompiledPass:
             at += len(c)
         frame = (np.array(fside, dtype=np.bool_), np.concatenate(fk).astype(np.int64) if fk else
                  np.zeros(0, dtype=np.int64), frame_cols, F_all)
-        return anchors, mask, pair, frame
+        return [anchors, mask, pair, frame]
 
     def state(self, q: np.ndarray) -> dict:
         """closure_groups.closure_state at q (n, nq): R, p, W, c, Cs."""
@@ -177,20 +206,26 @@ class CompiledPass:
         return G
 
     def parameter_rows(self, st: dict) -> np.ndarray:
-        """C_theta (n, m, nc): ClosedChainBatch._parameter_rows, point groups in the kernel."""
+        """C_theta (n, nnz) at the entries (entry_row, entry_col) that can be nonzero: ClosedChainBatch.
+        _parameter_rows, point groups in the kernel."""
         R, p = st["R"], st["p"]
         n = len(R)
         G = self.twists_at(R, p) if len(self.twists.active) else np.zeros((n, 0, 6, 1))
-        out = np.zeros((n, self.n_rows, self.nc))
-        for g, point, placed, pairs, frames in zip(self.groups, self.points, self.anchors, self.group_pairs,
-                                                   self.group_frames):
+        out = np.zeros((n, len(self.entry_row)))
+        for g, point, placed, pairs, frames, dense in zip(self.groups, self.points, self.anchors, self.group_pairs,
+                                                          self.group_frames, self.dense):
             if point is not None:
-                closure_kernels.point_parameter_rows(R, p, G, *point[0][:2], *placed, point[0][2], *point[2], *point[3],
-                                                     out)
+                closure_kernels.point_parameter_rows(R, p, G, *point[0][:2], *placed, *point[2], *point[3], out)
                 continue
             sides = [(pk, self.positions[pa], G[:, pa]) if len(self.twists.active) and len(pk) else (None,) * 3
                      for pk, pa in pairs]
-            out[:, g.rows] = parameter_rows(g, R, p, sides, frames, self.nc)
+            out[:, dense] = parameter_rows(g, R, p, sides, frames, self.nc).reshape(n, -1)
+        return out
+
+    def dense_parameter_rows(self, compact: np.ndarray) -> np.ndarray:
+        """C_theta (n, m, nc) from its (n, nnz) entries."""
+        out = np.zeros((len(compact), self.n_rows, self.nc))
+        out[:, self.entry_row, self.entry_col] = compact
         return out
 
     def newton_step(self, Cs: np.ndarray, c: np.ndarray) -> np.ndarray:
@@ -210,21 +245,21 @@ class CompiledPass:
         arrow_kernels.arrow_inverse(np.ascontiguousarray(Cs), *self.arrow, inv, bound)
         return inv, bound
 
-    @staticmethod
-    def frame_solved_columns(R0, p0, W, moving, solver, C_theta, ccols, J) -> None:
-        """J[:, :, ccols] = -Ad(M^-1) W[:, :, moving] solver[:, moving] C_theta (ClosedChainBatch.frame)."""
+    def frame_solved_columns(self, R0, p0, W, moving, solver, C_theta, ccols, J) -> None:
+        """J[:, :, ccols] = -Ad(M^-1) W[:, :, moving] solver[:, moving] C_theta (ClosedChainBatch.frame; C_theta
+        (n, nnz) from `parameter_rows`)."""
         sensitivity_kernels.frame_solved_columns(
             np.ascontiguousarray(R0), np.ascontiguousarray(p0), np.ascontiguousarray(W),
             np.asarray(moving, dtype=np.int64), np.ascontiguousarray(solver), np.ascontiguousarray(C_theta),
-            np.asarray(ccols, dtype=np.int64), J)
+            self.entry_row, self.entry_col, np.asarray(ccols, dtype=np.int64), J)
 
-    @staticmethod
-    def predicted_moves(blocks, dx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def predicted_moves(self, blocks, dx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(-C_s^-1 C_theta dx (n, ns), max |C_theta dx| (n,)) over the previous pass's (solver, C_theta) blocks."""
         moves, tops = [], []
         for solver, C_theta in blocks:
             dq, top = np.empty(solver.shape[:2]), np.empty(len(solver))
-            sensitivity_kernels.predicted_moves(solver, C_theta, np.ascontiguousarray(dx, dtype=float), dq, top)
+            sensitivity_kernels.predicted_moves(solver, C_theta, self.entry_row, self.entry_col,
+                                                np.ascontiguousarray(dx, dtype=float), dq, top)
             moves.append(dq)
             tops.append(top)
         return np.concatenate(moves), np.concatenate(tops)

@@ -236,13 +236,14 @@ def active_twists(R, p, active, placed, parents, placement_R, placement_p, block
                     G[s, a, r, col] += twist[r] * offset_rows[t, col]
 
 
-def point_parameter_rows(R, p, G, joints1, joints2, R1f, p1f, R2f, p2f, rows, pair_side, pair_k, pair_a, pair_cols,
-                         frame_side, frame_k, frame_cols, F, out):
-    """Adds the point closures' C_theta into out (n, m, nc) (closure_groups.parameter_rows, point branch):
-    a pair (anchor k of side 0 or 1, active joint a supporting it, its columns pair_cols among nc, padded with
-    nc) adds -+ R1^T (Uv + Uw x p2) of U = G[a]; an anchor frame's own placement columns (frame_cols, LOCAL
-    twists F (rows, 6, f)) add cp x Fw - Fv (side 0, cp = c_k) or R1^T R2 Fv (side 1)."""
-    n, nc, width = R.shape[0], out.shape[2], pair_cols.shape[1]
+def point_parameter_rows(R, p, G, joints1, joints2, R1f, p1f, R2f, p2f, pair_side, pair_k, pair_a, pair_entry,
+                         frame_side, frame_k, frame_entry, F, out):
+    """Adds the point closures' C_theta into out (n, nnz), its entries that can be nonzero (closure_groups.
+    parameter_rows, point branch): a pair (anchor k of side 0 or 1, active joint a supporting it) adds
+    -+ R1^T (Uv + Uw x p2) of U = G[a] column by column; an anchor frame's own placement columns (LOCAL twists F
+    (rows, 6, f)) add cp x Fw - Fv (side 0, cp = c_k) or R1^T R2 Fv (side 1). pair_entry (P, 3, c) and
+    frame_entry (T, 3, f): the entry of out that row i of the closure and that column go to (-1: padding)."""
+    n, width = R.shape[0], pair_entry.shape[2]
     k_count = joints1.shape[0]
     R1, R2 = np.empty((k_count, 3, 3)), np.empty((k_count, 3, 3))
     p1, p2, cp, R12 = np.empty((k_count, 3)), np.empty((k_count, 3)), np.empty(3), np.empty((3, 3))
@@ -254,14 +255,13 @@ def point_parameter_rows(R, p, G, joints1, joints2, R1f, p1f, R2f, p2f, rows, pa
             k, a = pair_k[t], pair_a[t]
             sign = 1.0 if pair_side[t] else -1.0
             for col in range(width):
-                target = pair_cols[t, col]
-                if target >= nc:
+                if pair_entry[t, 0, col] < 0:
                     continue
                 v0 = G[s, a, 0, col] + G[s, a, 4, col] * p2[k, 2] - G[s, a, 5, col] * p2[k, 1]
                 v1 = G[s, a, 1, col] + G[s, a, 5, col] * p2[k, 0] - G[s, a, 3, col] * p2[k, 2]
                 v2 = G[s, a, 2, col] + G[s, a, 3, col] * p2[k, 1] - G[s, a, 4, col] * p2[k, 0]
                 for i in range(3):
-                    out[s, rows[k, i], target] += sign * (R1[k, 0, i] * v0 + R1[k, 1, i] * v1 + R1[k, 2, i] * v2)
+                    out[s, pair_entry[t, i, col]] += sign * (R1[k, 0, i] * v0 + R1[k, 1, i] * v1 + R1[k, 2, i] * v2)
         for t in range(frame_k.shape[0]):
             k = frame_k[t]
             if frame_side[t]:      # R1^T R2, once per anchor frame
@@ -271,9 +271,8 @@ def point_parameter_rows(R, p, G, joints1, joints2, R1f, p1f, R2f, p2f, rows, pa
             for b in range(3):     # side 0: cp = c_k = R1^T (p2 - p1)
                 cp[b] = (R1[k, 0, b] * (p2[k, 0] - p1[k, 0]) + R1[k, 1, b] * (p2[k, 1] - p1[k, 1])
                          + R1[k, 2, b] * (p2[k, 2] - p1[k, 2]))
-            for col in range(frame_cols.shape[1]):
-                target = frame_cols[t, col]
-                if target >= nc:
+            for col in range(frame_entry.shape[2]):
+                if frame_entry[t, 0, col] < 0:
                     continue
                 for i in range(3):
                     if frame_side[t]:      # R1^T R2 Fv
@@ -281,7 +280,7 @@ def point_parameter_rows(R, p, G, joints1, joints2, R1f, p1f, R2f, p2f, rows, pa
                     else:                   # cp x Fw - Fv
                         i1, i2 = (i + 1) % 3, (i + 2) % 3
                         acc = cp[i1] * F[t, 3 + i2, col] - cp[i2] * F[t, 3 + i1, col] - F[t, i, col]
-                    out[s, rows[k, i], target] += acc
+                    out[s, frame_entry[t, i, col]] += acc
 
 
 KERNELS = ("quaternion_matrix", "motion_column", "anchor", "tree_state", "integrate", "point_rows", "active_twists",
