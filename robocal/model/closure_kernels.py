@@ -175,6 +175,7 @@ def point_rows(R, p, W, joints1, joints2, R1f, p1f, R2f, p2f, rows, mask_cols, m
     n, k_count, ns = R.shape[0], joints1.shape[0], W.shape[2]
     R1, R2 = np.empty((1, 3, 3)), np.empty((1, 3, 3))
     p1, p2 = np.empty((1, 3)), np.empty((1, 3))
+    e, f = np.empty((3, 3)), np.empty((3, 3))
     for s in range(n):
         for k in range(k_count):
             anchor(R, p, s, joints1[k], R1f, p1f, k, R1, p1, 0)
@@ -184,15 +185,20 @@ def point_rows(R, p, W, joints1, joints2, R1f, p1f, R2f, p2f, rows, mask_cols, m
                 r = rows[k, i]
                 e0, e1, e2 = R1[0, 0, i], R1[0, 1, i], R1[0, 2, i]        # row i of R1^T
                 c[s, r] = e0 * (x0 - p1[0, 0]) + e1 * (x1 - p1[0, 1]) + e2 * (x2 - p1[0, 2])
-                f0, f1, f2 = x1 * e2 - x2 * e1, x2 * e0 - x0 * e2, x0 * e1 - x1 * e0
+                e[i, 0], e[i, 1], e[i, 2] = e0, e1, e2
+                f[i, 0], f[i, 1], f[i, 2] = x1 * e2 - x2 * e1, x2 * e0 - x0 * e2, x0 * e1 - x1 * e0
                 for col in range(ns):
                     Cs[s, r, col] = 0.0
-                for t in range(mask_cols.shape[1]):
-                    col = mask_cols[k, t]
-                    if col < 0:
-                        break
-                    Cs[s, r, col] = mask_values[k, t] * (e0 * W[s, 0, col] + e1 * W[s, 1, col] + e2 * W[s, 2, col]
-                                                         + f0 * W[s, 3, col] + f1 * W[s, 4, col] + f2 * W[s, 5, col])
+            for t in range(mask_cols.shape[1]):       # each moving column's twist read once for the three rows
+                col = mask_cols[k, t]
+                if col < 0:
+                    break
+                m = mask_values[k, t]
+                v0, v1, v2 = W[s, 0, col], W[s, 1, col], W[s, 2, col]
+                w0, w1, w2 = W[s, 3, col], W[s, 4, col], W[s, 5, col]
+                for i in range(3):
+                    Cs[s, rows[k, i], col] = m * (e[i, 0] * v0 + e[i, 1] * v1 + e[i, 2] * v2
+                                                  + f[i, 0] * w0 + f[i, 1] * w1 + f[i, 2] * w2)
 
 
 def active_twists(R, p, active, placed, parents, placement_R, placement_p, blocks, offset_owner, offset_active,
