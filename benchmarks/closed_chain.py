@@ -27,7 +27,7 @@ largest relative difference of their residuals and Jacobians. Issue 34's target:
 sample at 1000 samples (the last line says whether it is met, on CPU time).
 --profile adds where one step pass of (b) spends its time: CPU time per phase (timers around its methods) and
 cProfile's cumulative figures (on CPU time, its overhead included), us per sample.
-The last line: wall time of a fresh process's first pass on 100 samples, numba compiling its kernels (empty
+The last line: wall time of a fresh process's first pass on --samples samples, numba compiling its kernels (empty
 NUMBA_CACHE_DIR), numba loading them from that cache, and the numpy path.
 """
 from __future__ import annotations
@@ -204,6 +204,7 @@ def first_pass_costs(n: int) -> tuple[float, float, float]:
 
 PHASES = {("closed_chain_batch.py", "__init__"): "whole batched assembly and sensitivities",
           ("closure_groups.py", "closure_state"): "  closure evaluations (FK, rows, C_s)",
+          ("closed_chain_compiled.py", "state"): "  closure evaluations (FK, rows, C_s)",
           ("closed_chain_batch.py", "_assemble"): "  assembly: evaluations + damped Newton steps",
           ("closed_chain_batch.py", "_step"): "    Newton steps (6-UPS: block elimination)",
           ("closed_chain_batch.py", "_solver"): "  C_s^-1 and the regularity check",
@@ -233,8 +234,8 @@ def profile_step(robot, n: int) -> list[tuple[str, float]]:
 
 TIMED = (("ClosedChainBatch", "__init__", "batched assembly and sensitivities"),
          ("ClosedChainBatch", "_state", "  closure evaluations (FK, rows, C_s)"),
-         ("TreeArrays", "placements", "    tree placements"),
-         ("TreeArrays", "motion_columns", "    joint-motion columns"),
+         ("TreeArrays", "placements", "    tree placements (numpy path)"),
+         ("TreeArrays", "motion_columns", "    joint-motion columns (numpy path)"),
          ("ClosedChainBatch", "_step", "  Newton steps"),
          ("ClosedChainBatch", "_solver", "  C_s^-1 and its regularity bound"),
          ("ClosedChainBatch", "_parameter_rows", "  C_theta (closure rows per parameter)"),
@@ -337,14 +338,19 @@ def main():
           f"{then['calibrate_cpu']:.1f} -> {now['calibrate_cpu']:.1f} ({ratio:.2f}x); numpy path: step "
           f"{numpy_path['step_cpu']:.1f}, calibrate {numpy_path['calibrate_cpu']:.1f}; "
           f"target step pass <= 10 us/sample: {'met' if best <= 10.0 else 'not met'} ({best:.1f})")
-    cold, warm, plain = first_pass_costs(100)
-    print(f"first pass of a fresh process, 100 samples (wall): numba compiling its kernels {cold:.2f} s, numba from its "
+    cold, warm, plain = first_pass_costs(n)
+    print(f"first pass of a fresh process, {n} samples (wall): numba compiling its kernels {cold:.2f} s, numba from its "
           f"cache {warm:.2f} s, numpy path {plain:.2f} s")
     if args.profile:
         print("\n(b) one step pass, CPU time per phase (process_time around each method, best of --repeats), "
               "us/sample:")
-        for label, us in phases(robot, n, args.repeats):
-            print(f"  {label:<48}{us:>8.1f}")
+        with_numba = phases(robot, n, args.repeats)
+        os.environ["ROBOCAL_NO_NUMBA"] = "1"
+        without = phases(robot, n, args.repeats)
+        del os.environ["ROBOCAL_NO_NUMBA"]
+        print(f"  {'':<48}{'numba':>8}{'numpy':>8}")
+        for (label, us), (_, plain_us) in zip(with_numba, without):
+            print(f"  {label:<48}{us:>8.1f}{plain_us:>8.1f}")
         print("\n(b) one step pass under cProfile (its overhead included), cumulative us/sample of CPU time:")
         for label, us in profile_step(robot, n):
             print(f"  {label:<48}{us:>8.1f}")

@@ -12,7 +12,8 @@ import pytest
 from reference_evaluation import reference_evaluate
 from robocal.errors import AssemblyError
 from robocal.model.closed_chain_batch import ClosedChainBatch
-from robocal.model.closed_chain_compiled import CompiledPass
+from robocal.model import closed_chain_compiled
+from robocal.model.closed_chain_compiled import CompiledPass, numba_wanted
 from robocal.model.closure_groups import closure_groups, closure_state
 from robocal.model.point_closure_solve import PointArrow
 from robocal.model.tree_arrays import TreeArrays
@@ -20,6 +21,12 @@ from test_closed_chain_batch import _models, linkage_problem, stewart_problem
 
 pytest.importorskip("numba")
 RTOL = 1e-10
+
+
+@pytest.fixture(autouse=True)
+def kernels_for_small_passes(monkeypatch):
+    """These problems have a few samples: the kernels by default on them too (NUMBA_MIN_SAMPLES is a cost rule)."""
+    monkeypatch.setattr(closed_chain_compiled, "NUMBA_MIN_SAMPLES", 0)
 
 
 def _relative(a, b):
@@ -163,3 +170,11 @@ def test_parameter_rows_kernel_matches_numpy(tmp_path):
         compiled = numba_batch.compiled.dense_parameter_rows(numba_batch._parameter_rows(numba_batch._state(q)))
         reference = numpy_batch._parameter_rows(numpy_batch._state(q))
         assert np.abs(reference).max() > 0.1 and _relative(compiled, reference) < RTOL
+
+
+def test_numba_is_chosen_by_the_pass_size_and_switched_off_by_the_environment(monkeypatch):
+    monkeypatch.setattr(closed_chain_compiled, "NUMBA_MIN_SAMPLES", 1000)
+    assert numba_wanted(None, 1000) and numba_wanted(True, 3) and not numba_wanted(False, 5000)
+    assert numba_wanted(None, 3) == closed_chain_compiled.kernels_loaded()      # loaded by the call above: True
+    monkeypatch.setenv("ROBOCAL_NO_NUMBA", "1")
+    assert not numba_wanted(None, 5000)

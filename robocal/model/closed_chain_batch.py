@@ -62,8 +62,9 @@ class ClosedChainBatch:
     the start of each assembly and updated with the solutions (the problem's dict, shared with the
     per-sample path); jacobian: whether frames will be asked for their parameter Jacobians; samples: the
     samples to assemble (default all); cache: a dict the caller keeps between passes of one problem;
-    use_numba: the hot loops in numba kernels (robocal.model.closed_chain_compiled: None when numba imports and
-    ROBOCAL_NO_NUMBA is not 1; False: numpy only; True: numba required), same results to rounding."""
+    use_numba: the hot loops in numba kernels (robocal.model.closed_chain_compiled.numba_wanted: None from
+    NUMBA_MIN_SAMPLES samples when numba imports and ROBOCAL_NO_NUMBA is not 1; False: numpy only; True: numba
+    required), same results to rounding."""
 
     def __init__(self, ms, values: np.ndarray, warm_starts: dict, jacobian: bool = True, samples=None,
                  cache: dict | None = None, tol: float = 1e-12, max_iterations: int = 50,
@@ -89,7 +90,7 @@ class ClosedChainBatch:
         anchors = [f for g in self.groups for side in g.frames for f in side]
         # the parameters' structure: the same arrays as the last pass's (the usual case within one problem)
         # reuse its tables, only the placements are read again
-        key = (ms.P_joint, ms.P_offset, [ms.P_frame.get(f) for f in anchors], numba_wanted(use_numba))
+        key = (ms.P_joint, ms.P_offset, [ms.P_frame.get(f) for f in anchors], numba_wanted(use_numba, self.n))
         saved = cache.get("structure")
         if saved is not None and _same_structure(saved["key"], key):
             self.twists = saved["twists"].at_tree(self.tree)

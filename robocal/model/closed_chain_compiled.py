@@ -8,8 +8,9 @@ What the kernels do not cover stays numpy, from the same inputs: closure kinds o
 distance, frame rows through closure_groups.group_state / parameter_rows), a C_s without the arrow structure (the
 dense LU in ClosedChainBatch), and every breakdown (NaN from a kernel sends the block to the numpy path).
 
-`numba_wanted(use_numba)`: None uses numba when it imports and the environment variable ROBOCAL_NO_NUMBA is unset
-(or 0); False keeps the numpy path; True requires numba (ImportError without it).
+`numba_wanted(use_numba, n)`: None uses numba for a pass of n >= NUMBA_MIN_SAMPLES samples (or any pass once the
+kernels are loaded in this process) when it imports and the environment variable ROBOCAL_NO_NUMBA is unset (or 0);
+False keeps the numpy path; True requires numba (ImportError without it).
 """
 from __future__ import annotations
 
@@ -23,11 +24,23 @@ from robocal.model.closure_groups import group_state, parameter_rows
 from robocal.model.tree_arrays import SMALL_ANGLE
 
 
-def numba_wanted(use_numba: bool | None) -> bool:
-    """use_numba, or for None: ROBOCAL_NO_NUMBA is unset (or 0) and numba imports (the kernels are jitted here,
-    on the first closed-chain pass: a few seconds the first time, then loaded from numba's cache)."""
+# Loading numba and the kernels from its cache costs ~0.3 s once per process (docs/speed.md, "Closed chains"); they
+# save ~12 us per sample and pass, ~20 passes a calibration: from ~1000 samples a pass one calibration repays it
+NUMBA_MIN_SAMPLES = 1000
+
+
+def kernels_loaded() -> bool:
+    return closure_kernels.is_compiled() and arrow_kernels.is_compiled() and sensitivity_kernels.is_compiled()
+
+
+def numba_wanted(use_numba: bool | None, n: int | None = None) -> bool:
+    """use_numba, or for None: ROBOCAL_NO_NUMBA is unset (or 0), the pass has at least NUMBA_MIN_SAMPLES samples
+    n (or the kernels are loaded already) and numba imports (the kernels are jitted here, on the first such pass:
+    seconds the first time, then loaded from numba's cache)."""
     if use_numba is None:
         if os.environ.get("ROBOCAL_NO_NUMBA", "0").strip() not in ("", "0"):
+            return False
+        if n is not None and n < NUMBA_MIN_SAMPLES and not kernels_loaded():
             return False
         try:
             compile_all()

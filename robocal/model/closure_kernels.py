@@ -294,6 +294,10 @@ KERNELS = ("quaternion_matrix", "motion_column", "anchor", "tree_state", "integr
 _compiled = False
 
 
+def is_compiled() -> bool:
+    return _compiled
+
+
 def compile_kernels():
     """jit the kernels in place (callees first: a jitted caller needs them jitted); numba is imported here only.
     Raises ImportError without numba."""
