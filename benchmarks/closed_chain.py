@@ -339,8 +339,8 @@ def main():
           f"{numpy_path['step_cpu']:.1f}, calibrate {numpy_path['calibrate_cpu']:.1f}; "
           f"target step pass <= 10 us/sample: {'met' if best <= 10.0 else 'not met'} ({best:.1f})")
     cold, warm, plain = first_pass_costs(n)
-    print(f"first pass of a fresh process, {n} samples (wall): numba compiling its kernels {cold:.2f} s, numba from its "
-          f"cache {warm:.2f} s, numpy path {plain:.2f} s")
+    print(f"first pass of a fresh process, {n} samples (wall): numba compiling its kernels {cold:.2f} s, numba from "
+          f"its cache {warm:.2f} s, numpy path {plain:.2f} s")
     if args.profile:
         print("\n(b) one step pass, CPU time per phase (process_time around each method, best of --repeats), "
               "us/sample:")

@@ -10,14 +10,18 @@ import pinocchio as pin
 import pytest
 
 from reference_evaluation import reference_evaluate
+import robocal
 from robocal.errors import AssemblyError
+from robocal.estimation.calibrate import calibrate
 from robocal.model.closed_chain_batch import ClosedChainBatch
 from robocal.model import closed_chain_compiled
 from robocal.model.closed_chain_compiled import CompiledPass, numba_wanted
 from robocal.model.closure_groups import closure_groups, closure_state
 from robocal.model.point_closure_solve import PointArrow
+from robocal.estimation.problem import Problem
 from robocal.model.tree_arrays import TreeArrays
-from test_closed_chain_batch import _models, linkage_problem, stewart_problem
+from robocal.systems.stewart import calibration as sc, modes as sm
+from test_closed_chain_batch import URDF, _models, linkage_problem, stewart_problem
 
 pytest.importorskip("numba")
 RTOL = 1e-10
@@ -178,3 +182,32 @@ def test_numba_is_chosen_by_the_pass_size_and_switched_off_by_the_environment(mo
     assert numba_wanted(None, 3) == closed_chain_compiled.kernels_loaded()      # loaded by the call above: True
     monkeypatch.setenv("ROBOCAL_NO_NUMBA", "1")
     assert not numba_wanted(None, 5000)
+
+
+def _stewart_fit(n, seed=0):
+    """The 42-parameter pose fit of benchmarks/closed_chain.py (anchors and strut offsets, true machine N(0, 1 mm),
+    noise-free poses)."""
+    rng = np.random.default_rng(seed)
+    robot = robocal.load_urdf(URDF / "stewart_6_6.urdf")
+    truth = sc.stewart_parameters()
+    for p in truth:
+        p.value = rng.normal(0.0, 1e-3)
+    tool = sm.Tool(0.2, 0.003)
+    tips = sc.random_tips(n, rng)
+    abc, R = sc.random_orientations(n, rng)
+    struts = sc.struts(sc.geometry(robot, truth), sc.tip_to_platform(tips, R, tool))
+    return Problem(robot, sc.stewart_parameters(), sc.actuated(robot), struts,
+                   sm.pose_residuals("pose", robot, np.arange(n), np.column_stack([tips, abc]), [1] * 6, tool,
+                                     (1e-6, 1e-6)))
+
+
+def test_calibration_gives_the_same_parameters_on_both_paths(monkeypatch):
+    """A whole fit (every pass, the predicted starts included) through the kernels and through numpy: the
+    parameters agree to 1e-10 (both paths' differences are rounding, ~1e-15 per pass)."""
+    fitted = []
+    for flag in ("0", "1"):
+        monkeypatch.setenv("ROBOCAL_NO_NUMBA", flag)
+        problem = _stewart_fit(30)
+        calibrate(problem)
+        fitted.append(problem.params.free_values())
+    assert np.abs(fitted[0]).max() > 1e-4 and np.abs(fitted[0] - fitted[1]).max() < 1e-10

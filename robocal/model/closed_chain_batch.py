@@ -32,7 +32,8 @@ import pinocchio as pin
 from robocal.errors import AssemblyError
 from robocal.model.batch_kinematics import FrameArrays
 from robocal.model.closed_chain_compiled import CompiledPass, numba_wanted
-from robocal.model.closure_groups import closure_groups, closure_state, parameter_rows, with_placements
+from robocal.model.closure_groups import (anchor_frame_columns, closure_groups, closure_state, parameter_rows,
+                                         with_placements)
 from robocal.model.lie_arrays import adjoint_inverse
 from robocal.model.loops import assemble
 from robocal.model.point_closure_solve import PointArrow
@@ -142,7 +143,8 @@ class ClosedChainBatch:
         self.ccols = np.union1d(self.twists.free_columns, np.flatnonzero(np.any(framed, axis=0)) if framed else [])
         self.ccols = self.ccols.astype(int)
         self.positions = np.searchsorted(self.ccols, self.twists.columns)     # padding (n_free) -> len(ccols)
-        self.group_frames = [[self._frame_columns(fids) for fids in g.frames] for g in self.groups]
+        self.group_frames = [[anchor_frame_columns(ms.P_frame, fids, self.ccols) for fids in g.frames]
+                             for g in self.groups]
         self.compiled = (CompiledPass(self.tree, self.groups, self.loops.n_rows, self.solved, self.twists,
                                       self.group_pairs, self.group_frames, self.positions, len(self.ccols), self.arrow)
                          if use_numba else None)
@@ -318,21 +320,6 @@ class ClosedChainBatch:
         return inv if square else inv @ np.swapaxes(Cs, 1, 2)
 
     # ---- parameter Jacobians ---------------------------------------------------------------
-    def _frame_columns(self, fids):
-        """(columns (k, f) among ccols padded with len(ccols), F (k, 6, f)): the anchor frames' own placement
-        columns, or None when no anchor of the list has any."""
-        P = self.ms.P_frame
-        used = [np.flatnonzero(np.any(P[f] != 0.0, axis=0)) if f in P else np.zeros(0, dtype=int) for f in fids]
-        width = max(len(u) for u in used)
-        if width == 0:
-            return None
-        cols = np.full((len(fids), width), len(self.ccols), dtype=int)
-        F = np.zeros((len(fids), 6, width))
-        for k, (f, u) in enumerate(zip(fids, used)):
-            cols[k, :len(u)] = np.searchsorted(self.ccols, u)
-            F[k, :, :len(u)] = P[f][:, u]
-        return cols, F
-
     def _parameter_rows(self, st: dict) -> np.ndarray:
         """C_theta (n, m, len(ccols)): the closure rows' derivative w.r.t. the free parameters, joints held; with the
         kernels (n, nnz), its entries that can be nonzero (CompiledPass.parameter_rows)."""

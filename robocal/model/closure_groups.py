@@ -66,6 +66,22 @@ def closure_groups(model, loops, tree: TreeArrays) -> list[ClosureGroup]:
     return groups
 
 
+def anchor_frame_columns(P_frame: dict, fids, ccols: np.ndarray):
+    """(columns (k, f) among ccols padded with len(ccols), F (k, 6, f)): the anchor frames' own placement
+    columns (P_frame: frame id -> its LOCAL twists per free parameter), or None when no anchor of the list has any."""
+    used = [np.flatnonzero(np.any(P_frame[f] != 0.0, axis=0)) if f in P_frame else np.zeros(0, dtype=int)
+            for f in fids]
+    width = max(len(u) for u in used)
+    if width == 0:
+        return None
+    cols = np.full((len(fids), width), len(ccols), dtype=int)
+    F = np.zeros((len(fids), 6, width))
+    for k, (f, u) in enumerate(zip(fids, used)):
+        cols[k, :len(u)] = np.searchsorted(ccols, u)
+        F[k, :, :len(u)] = P_frame[f][:, u]
+    return cols, F
+
+
 def to_world(D: np.ndarray, R: np.ndarray, p: np.ndarray) -> np.ndarray:
     """D Ad(M^-1) for M = (R, p): a derivative w.r.t. M's LOCAL twist turned into one w.r.t. a world twist.
     Ad(M^-1) = [[R^T, -R^T [p]x], [0, R^T]], so the two halves are Dv R^T and Dw R^T - (Dv R^T) [p]x, whose
