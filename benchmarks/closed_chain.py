@@ -229,7 +229,7 @@ def profile_step(robot, n: int) -> list[tuple[str, float]]:
         key = (Path(path).name, name)
         if key in PHASES:
             found[PHASES[key]] = found.get(PHASES[key], 0.0) + cumulative
-    return [(label, found.get(label, 0.0) / n * 1e6) for label in PHASES.values()]
+    return [(label, found.get(label, 0.0) / n * 1e6) for label in dict.fromkeys(PHASES.values())]
 
 
 TIMED = (("ClosedChainBatch", "__init__", "batched assembly and sensitivities"),
