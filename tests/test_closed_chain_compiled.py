@@ -211,3 +211,16 @@ def test_calibration_gives_the_same_parameters_on_both_paths(monkeypatch):
         calibrate(problem)
         fitted.append(problem.params.free_values())
     assert np.abs(fitted[0]).max() > 1e-4 and np.abs(fitted[0] - fitted[1]).max() < 1e-10
+
+
+def test_point_and_distance_closures_together_match_numpy_and_per_sample(tmp_path, monkeypatch):
+    """The linkage with its hinge as a spherical (point) closure: point rows in the kernels and the distance
+    closure's rows in numpy in one pass, one C_theta pattern over both (no arrow: more rows than unknowns)."""
+    import test_closed_chain_batch
+    mixed = test_closed_chain_batch.LINKAGE.replace('<loop_joint name="hinge" type="revolute"><axis xyz="0 0 1"/>',
+                                                    '<loop_joint name="hinge" type="spherical">')
+    assert mixed != test_closed_chain_batch.LINKAGE
+    monkeypatch.setattr(test_closed_chain_batch, "LINKAGE", mixed)
+    problems = _three_paths(lambda: linkage_problem(tmp_path), monkeypatch)
+    batch = _batch(problems["numba"], True)
+    assert sorted(g.kind for g in batch.groups) == ["distance", "point"] and batch.compiled is not None
