@@ -176,10 +176,12 @@ def test_parameter_rows_kernel_matches_numpy(tmp_path):
         assert np.abs(reference).max() > 0.1 and _relative(compiled, reference) < RTOL
 
 
-def test_numba_is_chosen_by_the_pass_size_and_switched_off_by_the_environment(monkeypatch):
+def test_numba_is_chosen_by_the_pass_size_alone_and_switched_off_by_the_environment(monkeypatch):
+    """By the pass's size, not by what the process ran before (the kernels are loaded by now): a fit gives the same
+    numbers serially and on fresh workers."""
     monkeypatch.setattr(closed_chain_compiled, "NUMBA_MIN_SAMPLES", 1000)
     assert numba_wanted(None, 1000) and numba_wanted(True, 3) and not numba_wanted(False, 5000)
-    assert numba_wanted(None, 3) == closed_chain_compiled.kernels_loaded()      # loaded by the call above: True
+    assert not numba_wanted(None, 999)
     monkeypatch.setenv("ROBOCAL_NO_NUMBA", "1")
     assert not numba_wanted(None, 5000)
 

@@ -200,10 +200,6 @@ KERNELS = ("solve_small", "arrow_parts", "arrow_newton", "arrow_damped", "arrow_
 _compiled = False
 
 
-def is_compiled() -> bool:
-    return _compiled
-
-
 def compile_kernels():
     """jit the kernels in place (callees first); numba is imported here only. Raises ImportError without numba."""
     global _compiled

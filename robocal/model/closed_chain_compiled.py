@@ -8,9 +8,10 @@ What the kernels do not cover stays numpy, from the same inputs: closure kinds o
 distance, frame rows through closure_groups.group_state / parameter_rows), a C_s without the arrow structure (the
 dense LU in ClosedChainBatch), and every breakdown (NaN from a kernel sends the block to the numpy path).
 
-`numba_wanted(use_numba, n)`: None uses numba for a pass of n >= NUMBA_MIN_SAMPLES samples (or any pass once the
-kernels are loaded in this process) when it imports and the environment variable ROBOCAL_NO_NUMBA is unset (or 0);
-False keeps the numpy path; True requires numba (ImportError without it).
+`numba_wanted(use_numba, n)`: None uses numba for a pass of n >= NUMBA_MIN_SAMPLES samples when it imports and the
+environment variable ROBOCAL_NO_NUMBA is unset (or 0); False keeps the numpy path; True requires numba (ImportError
+without it). The choice depends on the pass only, never on what the process ran before: a fit gives the same
+numbers serially and on a cluster's fresh workers.
 """
 from __future__ import annotations
 
@@ -29,18 +30,14 @@ from robocal.model.tree_arrays import SMALL_ANGLE
 NUMBA_MIN_SAMPLES = 1000
 
 
-def kernels_loaded() -> bool:
-    return closure_kernels.is_compiled() and arrow_kernels.is_compiled() and sensitivity_kernels.is_compiled()
-
-
 def numba_wanted(use_numba: bool | None, n: int | None = None) -> bool:
-    """use_numba, or for None: ROBOCAL_NO_NUMBA is unset (or 0), the pass has at least NUMBA_MIN_SAMPLES samples
-    n (or the kernels are loaded already) and numba imports (the kernels are jitted here, on the first such pass:
-    seconds the first time, then loaded from numba's cache)."""
+    """use_numba, or for None: ROBOCAL_NO_NUMBA is unset (or 0), the pass has at least NUMBA_MIN_SAMPLES samples n
+    and numba imports (the kernels are jitted here, on the first such pass: seconds the first time, then loaded
+    from numba's cache)."""
     if use_numba is None:
         if os.environ.get("ROBOCAL_NO_NUMBA", "0").strip() not in ("", "0"):
             return False
-        if n is not None and n < NUMBA_MIN_SAMPLES and not kernels_loaded():
+        if n is not None and n < NUMBA_MIN_SAMPLES:
             return False
         try:
             compile_all()
@@ -132,7 +129,9 @@ class CompiledPass:
         self.placement_R = np.ascontiguousarray(tree.placement_R, dtype=float)
         self.placement_p = np.ascontiguousarray(tree.placement_p, dtype=float)
         self.unrotated = np.asarray(tree.unrotated, dtype=np.bool_)
+        # per point group: R1f, p1f, R2f, p2f and whether each anchor rotation is the identity (no product)
         self.anchors = [tuple(np.ascontiguousarray(a, dtype=float) for side in g.placements for a in side)
+                        + tuple(np.all(side[0] == np.eye(3), axis=(1, 2)) for side in g.placements)
                         if g.kind == "point" else None for g in groups]
 
     def at_placements(self, tree, groups) -> "CompiledPass":

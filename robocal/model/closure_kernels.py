@@ -160,15 +160,20 @@ def motion_column(R, p, s, j, turning, direction, k):
     return d0, d1, d2, 0.0, 0.0, 0.0
 
 
-def anchor(R, p, s, j, fR, fp, k, Ra, pa, o):
-    """World pose (Ra[o], pa[o]) of anchor k on joint j at sample s: oMi[j] times its placement (fR[k], fp[k])."""
+def anchor(R, p, s, j, fR, fp, unrotated, k, Ra, pa, o):
+    """World pose (Ra[o], pa[o]) of anchor k on joint j at sample s: oMi[j] times its placement (fR[k], fp[k]);
+    unrotated[k]: fR[k] is the identity (no product)."""
     for a in range(3):
         pa[o, a] = p[s, j, a] + R[s, j, a, 0] * fp[k, 0] + R[s, j, a, 1] * fp[k, 1] + R[s, j, a, 2] * fp[k, 2]
-        for b in range(3):
-            Ra[o, a, b] = R[s, j, a, 0] * fR[k, 0, b] + R[s, j, a, 1] * fR[k, 1, b] + R[s, j, a, 2] * fR[k, 2, b]
+        if unrotated[k]:
+            for b in range(3):
+                Ra[o, a, b] = R[s, j, a, b]
+        else:
+            for b in range(3):
+                Ra[o, a, b] = R[s, j, a, 0] * fR[k, 0, b] + R[s, j, a, 1] * fR[k, 1, b] + R[s, j, a, 2] * fR[k, 2, b]
 
 
-def point_rows(R, p, W, joints1, joints2, R1f, p1f, R2f, p2f, rows, mask_cols, mask_values, c, Cs):
+def point_rows(R, p, W, joints1, joints2, R1f, p1f, R2f, p2f, unrotated1, unrotated2, rows, mask_cols, mask_values, c, Cs):
     """c = R1^T (p2 - p1) and C_s = [R1^T, p2 x rows of R1^T] W on the solved columns that move the closure
     (mask_cols (k, w), padded with -1, with their signs mask_values; as closure_groups.closure_state), written
     into the rows (k, 3) of c (n, m) and Cs (n, m, ns)."""
@@ -178,8 +183,8 @@ def point_rows(R, p, W, joints1, joints2, R1f, p1f, R2f, p2f, rows, mask_cols, m
     e, f = np.empty((3, 3)), np.empty((3, 3))
     for s in range(n):
         for k in range(k_count):
-            anchor(R, p, s, joints1[k], R1f, p1f, k, R1, p1, 0)
-            anchor(R, p, s, joints2[k], R2f, p2f, k, R2, p2, 0)
+            anchor(R, p, s, joints1[k], R1f, p1f, unrotated1, k, R1, p1, 0)
+            anchor(R, p, s, joints2[k], R2f, p2f, unrotated2, k, R2, p2, 0)
             x0, x1, x2 = p2[0, 0], p2[0, 1], p2[0, 2]
             for i in range(3):
                 r = rows[k, i]
@@ -242,7 +247,7 @@ def active_twists(R, p, active, placed, parents, placement_R, placement_p, block
                     G[s, a, r, col] += twist[r] * offset_rows[t, col]
 
 
-def point_parameter_rows(R, p, G, joints1, joints2, R1f, p1f, R2f, p2f, pair_side, pair_k, pair_a, pair_entry,
+def point_parameter_rows(R, p, G, joints1, joints2, R1f, p1f, R2f, p2f, unrotated1, unrotated2, pair_side, pair_k, pair_a, pair_entry,
                          frame_side, frame_k, frame_entry, F, out):
     """Adds the point closures' C_theta into out (n, nnz), its entries that can be nonzero (closure_groups.
     parameter_rows, point branch): a pair (anchor k of side 0 or 1, active joint a supporting it) adds
@@ -255,8 +260,8 @@ def point_parameter_rows(R, p, G, joints1, joints2, R1f, p1f, R2f, p2f, pair_sid
     p1, p2, cp, R12 = np.empty((k_count, 3)), np.empty((k_count, 3)), np.empty(3), np.empty((3, 3))
     for s in range(n):
         for k in range(k_count):
-            anchor(R, p, s, joints1[k], R1f, p1f, k, R1, p1, k)
-            anchor(R, p, s, joints2[k], R2f, p2f, k, R2, p2, k)
+            anchor(R, p, s, joints1[k], R1f, p1f, unrotated1, k, R1, p1, k)
+            anchor(R, p, s, joints2[k], R2f, p2f, unrotated2, k, R2, p2, k)
         for t in range(pair_k.shape[0]):
             k, a = pair_k[t], pair_a[t]
             sign = 1.0 if pair_side[t] else -1.0
@@ -292,10 +297,6 @@ def point_parameter_rows(R, p, G, joints1, joints2, R1f, p1f, R2f, p2f, pair_sid
 KERNELS = ("quaternion_matrix", "motion_column", "anchor", "tree_state", "integrate", "point_rows", "active_twists",
            "point_parameter_rows")
 _compiled = False
-
-
-def is_compiled() -> bool:
-    return _compiled
 
 
 def compile_kernels():

@@ -69,10 +69,6 @@ KERNELS = ("frame_solved_columns", "predicted_moves")
 _compiled = False
 
 
-def is_compiled() -> bool:
-    return _compiled
-
-
 def compile_kernels():
     """jit the kernels in place; numba is imported here only. Raises ImportError without numba."""
     global _compiled
