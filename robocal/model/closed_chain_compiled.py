@@ -1,9 +1,10 @@
 """The batched closed-chain pass's hot loops through the numba kernels (robocal.model.closure_kernels,
-robocal.model.arrow_kernels), when numba is installed (robocal's optional [fast] extra).
+arrow_kernels, sensitivity_kernels), when numba is installed (robocal's optional [fast] extra).
 
 `CompiledPass` holds one pass's tables (the tree's joints, the solved coordinates, the active joints' parameter
 blocks, the point closures' anchors and parameter pairs) as flat arrays and offers what ClosedChainBatch needs:
-`state` (tree walk, W, c, C_s), `twists`, `parameter_rows` (C_theta) and the 6-UPS arrow's steps and inverse.
+`state` (tree walk, W, c, C_s), `integrate`, `twists_at`, `parameter_rows` (C_theta at its possibly-nonzero
+entries), the 6-UPS arrow's steps and inverse, a frame's solved-joint columns and the predicted starts' moves.
 What the kernels do not cover stays numpy, from the same inputs: closure kinds other than the point (revolute,
 distance, frame rows through closure_groups.group_state / parameter_rows), a C_s without the arrow structure (the
 dense LU in ClosedChainBatch), and every breakdown (NaN from a kernel sends the block to the numpy path).
@@ -26,7 +27,7 @@ from robocal.model.tree_arrays import SMALL_ANGLE
 
 
 # Loading numba and the kernels from its cache costs ~0.3 s once per process (docs/speed.md, "Closed chains"); they
-# save ~12 us per sample and pass, ~20 passes a calibration: from ~1000 samples a pass one calibration repays it
+# save 11-13 us per sample and pass, ~20 passes a calibration: from ~1000 samples a pass one calibration repays it
 NUMBA_MIN_SAMPLES = 1000
 
 
