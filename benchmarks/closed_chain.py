@@ -7,9 +7,11 @@ Run:  OMP_NUM_THREADS=1 python benchmarks/closed_chain.py [--samples 1000] [--re
 Prints one table, every figure measured in this run, one thread:
   (a) the per-sample path (robocal.model.kinematics.SampleState: assembly and implicit-function derivatives
       sample by sample, what Problem.evaluate ran for closed chains before the batched path);
-  (b) the batched path (robocal.model.closed_chain_batch, what Problem.evaluate runs now), this tree;
+  (b) the batched path (robocal.model.closed_chain_batch, what Problem.evaluate runs now), this tree, in this
+      process (its numba kernels when numba is installed) and in subprocesses: the numpy path (ROBOCAL_NO_NUMBA=1)
+      and the numba path (robocal.model.closed_chain_compiled);
   (b0) the same batched pass of robocal at --baseline (default 2aa0703: before issue 34, "today's figure"),
-      extracted with `git archive` and measured in a subprocess alternately with (b) in a subprocess of its own,
+      extracted with `git archive` and measured in a subprocess alternately with the two (b) subprocesses,
       --pairs times (best of each: the shared cores' other jobs make single runs noisy);
   (c) the floor: Pinocchio 4.1's constraint models for the same machine (six PointAnchorConstraintModel:
       computeJointJacobians, calc, getConstraintsJacobian; robocal.model.pinocchio_rows) plus the tool frame's
@@ -25,6 +27,8 @@ largest relative difference of their residuals and Jacobians. Issue 34's target:
 sample at 1000 samples (the last line says whether it is met, on CPU time).
 --profile adds where one step pass of (b) spends its time: CPU time per phase (timers around its methods) and
 cProfile's cumulative figures (on CPU time, its overhead included), us per sample.
+The last line: wall time of a fresh process's first pass on --samples samples, numba compiling its kernels (empty
+NUMBA_CACHE_DIR), numba loading them from that cache, and the numpy path.
 """
 from __future__ import annotations
 
@@ -147,44 +151,60 @@ def pinocchio_floor(robot, q: np.ndarray, repeats: int) -> tuple[float, float]:
 
 
 def measure(n: int, repeats: int) -> dict:
-    """The batched step and calibrate passes of the robocal on the path (this tree or a baseline's)."""
+    """The batched step and calibrate passes of the robocal on the path (this tree or a baseline's); "first": wall
+    seconds of the process's first pass (numba's import and kernel compilation or cache load included)."""
     robot = robocal.load_urdf(URDF)
     problem, _ = stewart_problem(robot, n)
+    t0 = time.perf_counter()
+    problem.evaluate()
+    first = time.perf_counter() - t0
     wall, cpu, _ = step_pass(problem, repeats)
     problem, truth = stewart_problem(robot, n)
     fit, count, fitted, fit_cpu = calibrate_passes(problem)
-    return {"robocal": robocal.__file__, "step": wall / n * 1e6, "step_cpu": cpu / n * 1e6,
+    return {"robocal": robocal.__file__, "first": first, "step": wall / n * 1e6, "step_cpu": cpu / n * 1e6,
             "calibrate": fit / n * 1e6, "calibrate_cpu": fit_cpu / n * 1e6, "passes": count,
             "error": float(np.abs(fitted - truth).max())}
 
 
-def measured_in(tree: Path, n: int, repeats: int) -> dict:
-    """`measure` run by this script in a subprocess whose robocal is the one in `tree`."""
-    env = dict(os.environ, PYTHONPATH=str(tree), OMP_NUM_THREADS="1")
+def measured_in(tree: Path, n: int, repeats: int, **env_vars) -> dict:
+    """`measure` run by this script in a subprocess whose robocal is the one in `tree` (and env_vars set)."""
+    env = dict(os.environ, PYTHONPATH=str(tree), OMP_NUM_THREADS="1", **env_vars)
     out = subprocess.run([sys.executable, str(Path(__file__).resolve()), "--measure", "--samples", str(n),
                           "--repeats", str(repeats)], env=env, check=True, capture_output=True, text=True).stdout
     return json.loads(out.strip().splitlines()[-1])
 
 
-def today_and_now(commit: str, n: int, repeats: int, pairs: int) -> tuple[dict, dict]:
-    """Best figures of the baseline commit's batched pass and of this tree's, measured alternately."""
+def today_and_now(commit: str, n: int, repeats: int, pairs: int) -> tuple[dict, dict, dict]:
+    """Best figures of the baseline commit's batched pass, of this tree's numpy path (ROBOCAL_NO_NUMBA=1) and of
+    its numba path, measured alternately."""
     with tempfile.TemporaryDirectory() as tmp:
         archive = subprocess.run(["git", "-C", str(ROOT), "archive", commit], check=True, capture_output=True).stdout
         subprocess.run(["tar", "-x", "-C", tmp], input=archive, check=True)
-        runs = {"then": [], "now": []}
+        runs = {"then": [], "numpy": [], "now": []}
         for _ in range(pairs):
             runs["then"].append(measured_in(Path(tmp), n, repeats))
+            runs["numpy"].append(measured_in(ROOT, n, repeats, ROBOCAL_NO_NUMBA="1"))
             runs["now"].append(measured_in(ROOT, n, repeats))
     best = {}
     for key, results in runs.items():
         best[key] = {k: (min(r[k] for r in results) if isinstance(results[0][k], float) else results[0][k])
                      for k in results[0]}
         assert Path(best[key]["robocal"]).parents[1] == (Path(tmp) if key == "then" else ROOT), best[key]["robocal"]
-    return best["then"], best["now"]
+    return best["then"], best["numpy"], best["now"]
+
+
+def first_pass_costs(n: int) -> tuple[float, float, float]:
+    """Wall seconds of a fresh process's first batched pass on n samples: numba path compiling its kernels into an
+    empty cache, numba path loading them from that cache, numpy path (ROBOCAL_NO_NUMBA=1)."""
+    with tempfile.TemporaryDirectory() as cache:
+        cold = measured_in(ROOT, n, 1, NUMBA_CACHE_DIR=cache)["first"]
+        warm = measured_in(ROOT, n, 1, NUMBA_CACHE_DIR=cache)["first"]
+    return cold, warm, measured_in(ROOT, n, 1, ROBOCAL_NO_NUMBA="1")["first"]
 
 
 PHASES = {("closed_chain_batch.py", "__init__"): "whole batched assembly and sensitivities",
           ("closure_groups.py", "closure_state"): "  closure evaluations (FK, rows, C_s)",
+          ("closed_chain_compiled.py", "state"): "  closure evaluations (FK, rows, C_s)",
           ("closed_chain_batch.py", "_assemble"): "  assembly: evaluations + damped Newton steps",
           ("closed_chain_batch.py", "_step"): "    Newton steps (6-UPS: block elimination)",
           ("closed_chain_batch.py", "_solver"): "  C_s^-1 and the regularity check",
@@ -209,13 +229,13 @@ def profile_step(robot, n: int) -> list[tuple[str, float]]:
         key = (Path(path).name, name)
         if key in PHASES:
             found[PHASES[key]] = found.get(PHASES[key], 0.0) + cumulative
-    return [(label, found.get(label, 0.0) / n * 1e6) for label in PHASES.values()]
+    return [(label, found.get(label, 0.0) / n * 1e6) for label in dict.fromkeys(PHASES.values())]
 
 
 TIMED = (("ClosedChainBatch", "__init__", "batched assembly and sensitivities"),
          ("ClosedChainBatch", "_state", "  closure evaluations (FK, rows, C_s)"),
-         ("TreeArrays", "placements", "    tree placements"),
-         ("TreeArrays", "motion_columns", "    joint-motion columns"),
+         ("TreeArrays", "placements", "    tree placements (numpy path)"),
+         ("TreeArrays", "motion_columns", "    joint-motion columns (numpy path)"),
          ("ClosedChainBatch", "_step", "  Newton steps"),
          ("ClosedChainBatch", "_solver", "  C_s^-1 and its regularity bound"),
          ("ClosedChainBatch", "_parameter_rows", "  C_theta (closure rows per parameter)"),
@@ -280,10 +300,10 @@ def main():
     if args.measure:
         print(json.dumps(measure(n, args.repeats)))
         return
-    then, now = today_and_now(args.baseline, n, args.repeats, args.pairs)
+    then, numpy_path, now = today_and_now(args.baseline, n, args.repeats, args.pairs)
     robot = robocal.load_urdf(URDF)
     rows, evaluations = [], {}
-    for label, batched in (("(a) per-sample path", False), ("(b) batched path", True)):
+    for label, batched in (("(a) per-sample path", False), ("(b) batched path, numba if installed", True)):
         use_batched(batched)
         problem, truth = stewart_problem(robot, n)
         t_step, cpu_step, evaluations[batched] = step_pass(problem, args.repeats)
@@ -292,7 +312,8 @@ def main():
         rows.append((label, t_step / n * 1e6, cpu_step / n * 1e6, t_fit / n * 1e6, cpu_fit / n * 1e6, count,
                      np.abs(fitted - truth).max()))
     for label, r in ((f"(b0) batched path at {args.baseline} (today)", then),
-                     ("(b) batched path, this tree, subprocess", now)):
+                     ("(b) numpy path, this tree, subprocess", numpy_path),
+                     ("(b) numba path, this tree, subprocess", now)):
         rows.append((label, r["step"], r["step_cpu"], r["calibrate"], r["calibrate_cpu"], r["passes"], r["error"]))
     use_batched(True)
     q = np.array(list(problem.warm_starts.values()))
@@ -310,17 +331,26 @@ def main():
           f"(b) / floor: step {rows[1][1] / (t_floor * 1e6):.1f}x")
     print(f"(b) vs (a), step pass: residuals {relative(b.r, a.r):.1e}, Jacobian {relative(b.J, a.J):.1e} relative; "
           f"Pinocchio's rows vs the batched path's: {agreement:.1e}")
-    best = min(now["step_cpu"], rows[1][2])
+    best = now["step_cpu"]
     ratio = then["calibrate_cpu"] / now["calibrate_cpu"]
-    print(f"today -> this tree (CPU, best of {args.pairs} alternating pairs): step {then['step_cpu']:.1f} -> "
-          f"{now['step_cpu']:.1f} us/sample ({then['step_cpu'] / now['step_cpu']:.2f}x), calibrate "
-          f"{then['calibrate_cpu']:.1f} -> {now['calibrate_cpu']:.1f} ({ratio:.2f}x); "
+    print(f"today -> this tree, numba path (CPU, best of {args.pairs} alternating runs): step {then['step_cpu']:.1f} "
+          f"-> {now['step_cpu']:.1f} us/sample ({then['step_cpu'] / now['step_cpu']:.2f}x), calibrate "
+          f"{then['calibrate_cpu']:.1f} -> {now['calibrate_cpu']:.1f} ({ratio:.2f}x); numpy path: step "
+          f"{numpy_path['step_cpu']:.1f}, calibrate {numpy_path['calibrate_cpu']:.1f}; "
           f"target step pass <= 10 us/sample: {'met' if best <= 10.0 else 'not met'} ({best:.1f})")
+    cold, warm, plain = first_pass_costs(n)
+    print(f"first pass of a fresh process, {n} samples (wall): numba compiling its kernels {cold:.2f} s, numba from "
+          f"its cache {warm:.2f} s, numpy path {plain:.2f} s")
     if args.profile:
         print("\n(b) one step pass, CPU time per phase (process_time around each method, best of --repeats), "
               "us/sample:")
-        for label, us in phases(robot, n, args.repeats):
-            print(f"  {label:<48}{us:>8.1f}")
+        with_numba = phases(robot, n, args.repeats)
+        os.environ["ROBOCAL_NO_NUMBA"] = "1"
+        without = phases(robot, n, args.repeats)
+        del os.environ["ROBOCAL_NO_NUMBA"]
+        print(f"  {'':<48}{'numba':>8}{'numpy':>8}")
+        for (label, us), (_, plain_us) in zip(with_numba, without):
+            print(f"  {label:<48}{us:>8.1f}{plain_us:>8.1f}")
         print("\n(b) one step pass under cProfile (its overhead included), cumulative us/sample of CPU time:")
         for label, us in profile_step(robot, n):
             print(f"  {label:<48}{us:>8.1f}")

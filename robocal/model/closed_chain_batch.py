@@ -24,12 +24,16 @@ Robots with joint relations, tilts, compliance or backlash parameters keep the p
 """
 from __future__ import annotations
 
+import operator
+
 import numpy as np
 import pinocchio as pin
 
 from robocal.errors import AssemblyError
 from robocal.model.batch_kinematics import FrameArrays
-from robocal.model.closure_groups import closure_groups, closure_state, parameter_rows, with_placements
+from robocal.model.closed_chain_compiled import CompiledPass, numba_wanted
+from robocal.model.closure_groups import (anchor_frame_columns, closure_groups, closure_state, parameter_rows,
+                                         with_placements)
 from robocal.model.lie_arrays import adjoint_inverse
 from robocal.model.loops import assemble
 from robocal.model.point_closure_solve import PointArrow
@@ -58,10 +62,14 @@ class ClosedChainBatch:
     values: (N, n_read) readings in `ms.joint_names` order; warm_starts: sample index -> q (nq,), read for
     the start of each assembly and updated with the solutions (the problem's dict, shared with the
     per-sample path); jacobian: whether frames will be asked for their parameter Jacobians; samples: the
-    samples to assemble (default all); cache: a dict the caller keeps between passes of one problem."""
+    samples to assemble (default all); cache: a dict the caller keeps between passes of one problem;
+    use_numba: the hot loops in numba kernels (robocal.model.closed_chain_compiled.numba_wanted: None from
+    NUMBA_MIN_SAMPLES samples when numba imports and ROBOCAL_NO_NUMBA is not 1; False: numpy only; True: numba
+    required), same results to rounding."""
 
     def __init__(self, ms, values: np.ndarray, warm_starts: dict, jacobian: bool = True, samples=None,
-                 cache: dict | None = None, tol: float = 1e-12, max_iterations: int = 50):
+                 cache: dict | None = None, tol: float = 1e-12, max_iterations: int = 50,
+                 use_numba: bool | None = None):
         self.ms, self.model, self.loops = ms, ms.model, ms.loops
         cache = {} if cache is None else cache
         if cache.get("robot") is not ms.robot or cache.get("loops") is not ms.loops:
@@ -80,20 +88,30 @@ class ClosedChainBatch:
         self.n = n = len(self.samples)
         self.actuated = (values[self.samples] + ms.offsets)[:, ms.actuated_order]
         self.groups = with_placements(cache["groups"], self.model)
-        self.twists = TreeTwists(ms, self.tree)
-        self.group_pairs = [[self.twists.pairs(js) for js in g.joints] for g in self.groups]
-        # the few columns the closures' parameter rows can hold: tree joints' placements and offsets
-        # and the anchor frames' placements
-        self.tcols = self.twists.free_columns
         anchors = [f for g in self.groups for side in g.frames for f in side]
-        framed = [np.any(ms.P_frame[f] != 0.0, axis=0) for f in anchors if f in ms.P_frame]
-        self.ccols = np.union1d(self.tcols, np.flatnonzero(np.any(framed, axis=0)) if framed else [])
-        self.ccols = self.ccols.astype(int)
-        self.positions = np.searchsorted(self.ccols, self.twists.columns)     # padding (n_free) -> len(ccols)
-        self.group_frames = [[self._frame_columns(fids) for fids in g.frames] for g in self.groups]
-        neutral = pin.neutral(self.model)
-        guesses = np.array([warm_starts.get(i, neutral) for i in self.samples], dtype=float).reshape(n, self.model.nq)
-        starts = self._predicted(cache.get("previous"), guesses, warm_starts, tol)
+        # the parameters' structure: the same arrays as the last pass's (the usual case within one problem)
+        # reuse its tables, only the placements are read again
+        key = (ms.P_joint, ms.P_offset, [ms.P_frame.get(f) for f in anchors], numba_wanted(use_numba, self.n))
+        saved = cache.get("structure")
+        if saved is not None and _same_structure(saved["key"], key):
+            self.twists = saved["twists"].at_tree(self.tree)
+            self.group_pairs, self.ccols, self.positions, self.group_frames = saved["tables"]
+            self.compiled = saved["compiled"] and saved["compiled"].at_placements(self.tree, self.groups)
+        else:
+            self._parameter_tables(ms, anchors, key[3])
+            kept = (key[0].copy(), key[1].copy(), [None if f is None else f.copy() for f in key[2]], key[3])
+            cache["structure"] = {"key": kept, "twists": self.twists, "compiled": self.compiled,
+                                  "tables": (self.group_pairs, self.ccols, self.positions, self.group_frames)}
+        previous = cache.get("previous")
+        held = list(map(warm_starts.get, self.samples.tolist()))       # the warm starts (C-level loops: n is large)
+        same = (np.fromiter(map(operator.is_, held, previous["rows"]), dtype=bool, count=n)
+                if previous is not None and len(previous["rows"]) == n else np.zeros(n, dtype=bool))
+        if n and same.all():      # all still the previous pass's solutions: its stacked array, no row-by-row copy
+            guesses = previous["q"].copy()
+        else:
+            neutral = pin.neutral(self.model)
+            guesses = np.array([neutral if h is None else h for h in held], dtype=float).reshape(n, self.model.nq)
+        starts = self._predicted(previous, guesses, same, tol)
         # per block of CHUNK samples: joint placements R, p, solved-coordinate columns W, C_s^-1, C_theta (kept
         # per block: one array for all samples, allocated up front, makes every temporary fault in fresh pages)
         self.blocks, solutions = [], []
@@ -105,35 +123,62 @@ class ClosedChainBatch:
                                 "C_theta": self._parameter_rows(st) if jacobian else None})
             solutions.append(q)
         self.q = np.concatenate(solutions) if solutions else guesses
-        rows = list(self.q.copy())     # handed out as warm starts: never written to again
+        solution = self.q.copy()
+        rows = list(solution)     # handed out as warm starts: never written to again
         warm_starts.update(zip(self.samples.tolist(), rows))
         if jacobian:      # the next pass predicts its starts from these sensitivities (_predicted)
             cache["previous"] = {"x": ms.params.free_values(), "n_free": ms.n_free, "ccols": self.ccols,
-                                 "samples": self.samples, "rows": rows,
-                                 "blocks": [(b["solver"], b["C_theta"]) for b in self.blocks]}
+                                 "samples": self.samples, "rows": rows, "q": solution,
+                                 "blocks": [(b["solver"], b["C_theta"]) for b in self.blocks],
+                                 "compiled": self.compiled is not None}     # C_theta (n, nnz) there
 
-    def _predicted(self, previous: dict | None, guesses: np.ndarray, warm_starts: dict, tol: float) -> np.ndarray:
+    def _parameter_tables(self, ms, anchors: list, use_numba: bool) -> None:
+        """The parameters' structure as the pass uses it: active joints (TreeTwists), the closures' supporting pairs,
+        the compact columns ccols, and the kernels' tables."""
+        self.twists = TreeTwists(ms, self.tree)
+        self.group_pairs = [[self.twists.pairs(js) for js in g.joints] for g in self.groups]
+        # the few columns the closures' parameter rows can hold: tree joints' placements and offsets
+        # and the anchor frames' placements
+        framed = [np.any(ms.P_frame[f] != 0.0, axis=0) for f in anchors if f in ms.P_frame]
+        self.ccols = np.union1d(self.twists.free_columns, np.flatnonzero(np.any(framed, axis=0)) if framed else [])
+        self.ccols = self.ccols.astype(int)
+        self.positions = np.searchsorted(self.ccols, self.twists.columns)     # padding (n_free) -> len(ccols)
+        self.group_frames = [[anchor_frame_columns(ms.P_frame, fids, self.ccols) for fids in g.frames]
+                             for g in self.groups]
+        self.compiled = (CompiledPass(self.tree, self.groups, self.loops.n_rows, self.solved, self.twists,
+                                      self.group_pairs, self.group_frames, self.positions, len(self.ccols), self.arrow)
+                         if use_numba else None)
+
+    def _predicted(self, previous: dict | None, guesses: np.ndarray, same: np.ndarray, tol: float) -> np.ndarray:
         """Where to start each sample's Newton: its warm start moved by the first-order change of the solution,
         dq_s = -C_s^-1 C_theta dtheta, with the previous Jacobian pass's C_s^-1 and C_theta (which it kept). Only
         for samples whose warm start is still that pass's solution, and moves below MAX_PREDICTION: the error left is
         second order in dtheta, so a parameter step needs one Newton step instead of two. Where the closures move
         by less than sqrt(tol), one quadratic step from the warm start reaches tol anyway: the plain
-        start is kept (and the assembly's rounding with it). The per-sample fallback starts from the warm start."""
+        start is kept (and the assembly's rounding with it). The per-sample fallback starts from the warm start.
+        same: whether each sample's warm start is still the previous pass's solution."""
         ms = self.ms
         if (previous is None or previous["n_free"] != ms.n_free or not np.array_equal(previous["ccols"], self.ccols)
-                or not np.array_equal(previous["samples"], self.samples)):
+                or not np.array_equal(previous["samples"], self.samples)
+                or previous["compiled"] != (self.compiled is not None)):
             return guesses
         dx = (ms.params.free_values() - previous["x"])[self.ccols]
-        same = np.array([warm_starts.get(i) is r for i, r in zip(self.samples.tolist(), previous["rows"])], dtype=bool)
         if not dx.any() or not same.any():
             return guesses
-        dc = [C_theta @ dx for _, C_theta in previous["blocks"]]        # first-order change of the closures
-        dq = np.concatenate([-np.einsum("nsm,nm->ns", solver, d) for (solver, _), d in zip(previous["blocks"], dc)])
-        small = np.abs(np.concatenate(dc)).max(axis=1) < np.sqrt(tol)     # one Newton step from the start will do
+        if self.compiled is not None:
+            dq, dc_max = self.compiled.predicted_moves(previous["blocks"], dx)
+        else:
+            dc = [C_theta @ dx for _, C_theta in previous["blocks"]]        # first-order change of the closures
+            dq = np.concatenate([-np.einsum("nsm,nm->ns", solver, d) for (solver, _), d in zip(previous["blocks"], dc)])
+            dc_max = np.abs(np.concatenate(dc)).max(axis=1)
+        small = dc_max < np.sqrt(tol)     # one Newton step from the start will do
         dq[~same | small | (np.abs(dq).max(axis=1) > MAX_PREDICTION)] = 0.0
         v = np.zeros((self.n, self.model.nv))
         v[:, self.solved] = dq
-        return self.tree.integrate(guesses, v)
+        return self._integrate(guesses, v)
+
+    def _integrate(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        return self.compiled.integrate(q, v) if self.compiled is not None else self.tree.integrate(q, v)
 
     def _take(self, key: str, samples: np.ndarray, joint=None) -> np.ndarray:
         """The per-sample array `key` at the samples (and one joint of it), gathered from the blocks."""
@@ -153,6 +198,8 @@ class ClosedChainBatch:
 
     # ---- assembly --------------------------------------------------------------------------
     def _state(self, q: np.ndarray) -> dict:
+        if self.compiled is not None:
+            return self.compiled.state(q)
         return closure_state(self.tree, self.groups, self.loops.n_rows, self.solved, q)
 
     def _set_actuated(self, q: np.ndarray, actuated: np.ndarray) -> np.ndarray:
@@ -194,7 +241,7 @@ class ClosedChainBatch:
             last_cost[go] = mu
             v = np.zeros((len(go), self.model.nv))
             v[:, self.solved] = step
-            q[go] = self.tree.integrate(q[go], v)
+            q[go] = self._integrate(q[go], v)
         failed |= moving
         if failed.any():    # the per-sample solver (line search, its error messages) from the warm start
             data = self.model.createData()
@@ -211,7 +258,11 @@ class ClosedChainBatch:
         down: a singular block or S)."""
         ns = A.shape[2]
         plain = A.shape[1] == ns and mu.max() < NEGLIGIBLE_DAMPING
-        if self.arrow is not None:
+        if self.arrow is not None and self.compiled is not None:     # NaN where an elimination breaks down
+            step = self.compiled.newton_step(A, r) if plain else self.compiled.damped_step(A, r, mu)
+            if np.isfinite(step).all():
+                return step
+        elif self.arrow is not None:
             with np.errstate(divide="ignore", invalid="ignore"):
                 try:
                     step = self.arrow.newton_step(A, r) if plain else self.arrow.damped_step(A, r, mu)
@@ -249,9 +300,14 @@ class ClosedChainBatch:
         norm bound on s_min / s_max falls below the threshold; `labels`: the block's sample indices)."""
         square = Cs.shape[1] == Cs.shape[2]
         A = Cs if square else np.swapaxes(Cs, 1, 2) @ Cs
-        inv = self._inverse(A)
-        bound = (1.0 / (np.linalg.norm(A, axis=(1, 2)) * np.linalg.norm(inv, axis=(1, 2))) if inv is not None
-                 else np.zeros(len(A)))
+        inv = None
+        if self.compiled is not None and self.arrow is not None:     # NaN where the elimination breaks down
+            inv, bound = self.compiled.inverse(A)
+            inv = inv if np.isfinite(inv).all() else None
+        if inv is None:
+            inv = self._inverse(A)
+            bound = (1.0 / (np.linalg.norm(A, axis=(1, 2)) * np.linalg.norm(inv, axis=(1, 2))) if inv is not None
+                     else np.zeros(len(A)))
         ratio_bound = bound if square else np.sqrt(bound)       # <= s_min / s_max of C_s
         for i in np.flatnonzero(~(ratio_bound >= SINGULAR_RCOND)):
             s = np.linalg.svd(Cs[i], compute_uv=False)
@@ -264,23 +320,11 @@ class ClosedChainBatch:
         return inv if square else inv @ np.swapaxes(Cs, 1, 2)
 
     # ---- parameter Jacobians ---------------------------------------------------------------
-    def _frame_columns(self, fids):
-        """(columns (k, f) among ccols padded with len(ccols), F (k, 6, f)): the anchor frames' own placement
-        columns, or None when no anchor of the list has any."""
-        P = self.ms.P_frame
-        used = [np.flatnonzero(np.any(P[f] != 0.0, axis=0)) if f in P else np.zeros(0, dtype=int) for f in fids]
-        width = max(len(u) for u in used)
-        if width == 0:
-            return None
-        cols = np.full((len(fids), width), len(self.ccols), dtype=int)
-        F = np.zeros((len(fids), 6, width))
-        for k, (f, u) in enumerate(zip(fids, used)):
-            cols[k, :len(u)] = np.searchsorted(self.ccols, u)
-            F[k, :, :len(u)] = P[f][:, u]
-        return cols, F
-
     def _parameter_rows(self, st: dict) -> np.ndarray:
-        """C_theta (n, m, len(ccols)): the closure rows' derivative w.r.t. the free parameters, joints held."""
+        """C_theta (n, m, len(ccols)): the closure rows' derivative w.r.t. the free parameters, joints held; with the
+        kernels (n, nnz), its entries that can be nonzero (CompiledPass.parameter_rows)."""
+        if self.compiled is not None:
+            return self.compiled.parameter_rows(st)
         n, nc = len(st["c"]), len(self.ccols)
         G = self.twists.twists(st["R"], st["p"]) if len(self.twists.active) else None
         pieces = []
@@ -317,12 +361,17 @@ class ClosedChainBatch:
             block = slice(start, min(start + CHUNK, len(samples)))
             s = samples[block]
             Jb = J[block]
-            to_local = adjoint_inverse(R0[block], p0[block])
-            if len(moving):     # the frame's solved joints' columns times their rows of C_s^-1
-                Y = (to_local @ self._take("W", s)[:, :, moving]) @ self._take("solver", s)[:, moving]
+            to_local = adjoint_inverse(R0[block], p0[block]) if len(supports) or ms.has_base_params else None
+            if len(moving) and self.compiled is not None:
+                self.compiled.frame_solved_columns(R0[block], p0[block], self._take("W", s), moving,
+                                                   self._take("solver", s), self._take("C_theta", s), self.ccols, Jb)
+            elif len(moving):     # the frame's solved joints' columns times their rows of C_s^-1
+                to_local_m = adjoint_inverse(R0[block], p0[block]) if to_local is None else to_local
+                Y = (to_local_m @ self._take("W", s)[:, :, moving]) @ self._take("solver", s)[:, moving]
                 Jb[..., self.ccols] = -(Y @ self._take("C_theta", s))
             if len(supports):
-                G = self.twists.twists(self._take("R", s), self._take("p", s))
+                R_s, p_s = self._take("R", s), self._take("p", s)
+                G = self.compiled.twists_at(R_s, p_s) if self.compiled is not None else self.twists.twists(R_s, p_s)
                 for a in supports:
                     real = self.twists.columns[a] < ms.n_free        # padding columns carry zeros: dropped
                     Jb[..., self.twists.columns[a][real]] += (to_local @ G[:, a])[..., real]
@@ -331,6 +380,13 @@ class ClosedChainBatch:
         if fid in ms.P_frame:
             J += ms.P_frame[fid]
         return FrameArrays(R, p, R0, p0, J, np.eye(6))
+
+
+def _same_structure(a: tuple, b: tuple) -> bool:
+    """Whether two passes' (P_joint, P_offset, anchor frames' P_frame, numba) keys hold equal arrays."""
+    same = lambda x, y: x is y or (x is not None and y is not None and np.array_equal(x, y))     # noqa: E731
+    return (a[3] == b[3] and same(a[0], b[0]) and same(a[1], b[1]) and len(a[2]) == len(b[2])
+            and all(same(x, y) for x, y in zip(a[2], b[2])))
 
 
 def _scatter(state: dict, sub: dict, idx: np.ndarray) -> dict:

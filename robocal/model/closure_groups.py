@@ -66,6 +66,22 @@ def closure_groups(model, loops, tree: TreeArrays) -> list[ClosureGroup]:
     return groups
 
 
+def anchor_frame_columns(P_frame: dict, fids, ccols: np.ndarray):
+    """(columns (k, f) among ccols padded with len(ccols), F (k, 6, f)): the anchor frames' own placement
+    columns (P_frame: frame id -> its LOCAL twists per free parameter), or None when no anchor of the list has any."""
+    used = [np.flatnonzero(np.any(P_frame[f] != 0.0, axis=0)) if f in P_frame else np.zeros(0, dtype=int)
+            for f in fids]
+    width = max(len(u) for u in used)
+    if width == 0:
+        return None
+    cols = np.full((len(fids), width), len(ccols), dtype=int)
+    F = np.zeros((len(fids), 6, width))
+    for k, (f, u) in enumerate(zip(fids, used)):
+        cols[k, :len(u)] = np.searchsorted(ccols, u)
+        F[k, :, :len(u)] = P_frame[f][:, u]
+    return cols, F
+
+
 def to_world(D: np.ndarray, R: np.ndarray, p: np.ndarray) -> np.ndarray:
     """D Ad(M^-1) for M = (R, p): a derivative w.r.t. M's LOCAL twist turned into one w.r.t. a world twist.
     Ad(M^-1) = [[R^T, -R^T [p]x], [0, R^T]], so the two halves are Dv R^T and Dw R^T - (Dv R^T) [p]x, whose
@@ -112,35 +128,7 @@ def closure_state(tree: TreeArrays, groups: list[ClosureGroup], n_rows: int, sol
     R, p = tree.placements(q)
     W = tree.motion_columns(R, p, solved)
     n, ns = len(q), len(solved)
-    pieces = []
-    for g in groups:
-        k = len(g.length)
-        poses = anchor_poses(g, R, p)
-        (R1, p1), (R2, p2) = poses
-        if g.kind == "point":
-            # c = R1^T (p2 - p1); a world twist (v, w) of the body carrying anchor i moves the world point p2
-            # by v + w x p2 (seen from either body), so dc = R1^T (u2 - u1), R1^T (v + w x p2) = [R1^T, -B] (v, w)
-            # with B = R1^T [p2]x, whose rows are (rows of R1^T) x p2: no 6x6 algebra per anchor
-            R1t = np.swapaxes(R1.reshape(n, k, 3, 3), -1, -2)
-            ck = np.einsum("nkij,nkj->nki", R1t, (p2 - p1).reshape(n, k, 3))
-            E = np.empty((n, k, 3, 6))
-            E[..., :3] = R1t
-            cross(p2.reshape(n, k, 1, 3), R1t, out=E[..., 3:])       # -B: rows p2 x (rows of R1^T)
-            # one (3 k x 6) (6 x ns) product per sample (not k small ones), masked in place: a fresh temporary
-            # of this size costs more than the product (measured 65 against 735 us for 256 samples)
-            Ck = E.reshape(n, 3 * k, 6) @ W
-            Ck *= row_masks(g.masks[1] - g.masks[0], 3)
-            pieces.append((g, ck, Ck))
-            continue
-        ck, D1, D2 = group_rows(g, poses)
-        r = ck.shape[1]
-        # a coordinate that does not move an anchor contributes nothing: mask the product's columns
-        Ck = to_world(D1, R1, p1).reshape(n, k * r, 6) @ W
-        Ck *= row_masks(g.masks[0], r)
-        C2 = to_world(D2, R2, p2).reshape(n, k * r, 6) @ W
-        C2 *= row_masks(g.masks[1], r)
-        Ck += C2
-        pieces.append((g, ck, Ck))
+    pieces = [(g,) + group_state(g, R, p, W) for g in groups]
     # the outputs are allocated last: a large block held while the temporaries come and go makes the
     # allocator map fresh pages for them (measured: twice the time)
     if len(pieces) == 1 and pieces[0][0].in_order:
@@ -151,6 +139,37 @@ def closure_state(tree: TreeArrays, groups: list[ClosureGroup], n_rows: int, sol
         c[:, g.rows] = ck.reshape(n, -1)
         Cs[:, g.rows] = Ck.reshape(n, -1, ns)
     return {"R": R, "p": p, "W": W, "c": c, "Cs": Cs}
+
+
+def group_state(g: ClosureGroup, R: np.ndarray, p: np.ndarray, W: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(c (n, k, rows), C_s (n, k rows, n_solved)) of one group at the joints' world placements R, p and the
+    solved coordinates' world motion columns W."""
+    n, k = len(R), len(g.length)
+    poses = anchor_poses(g, R, p)
+    (R1, p1), (R2, p2) = poses
+    if g.kind == "point":
+        # c = R1^T (p2 - p1); a world twist (v, w) of the body carrying anchor i moves the world point p2
+        # by v + w x p2 (seen from either body), so dc = R1^T (u2 - u1), R1^T (v + w x p2) = [R1^T, -B] (v, w)
+        # with B = R1^T [p2]x, whose rows are (rows of R1^T) x p2: no 6x6 algebra per anchor
+        R1t = np.swapaxes(R1.reshape(n, k, 3, 3), -1, -2)
+        ck = np.einsum("nkij,nkj->nki", R1t, (p2 - p1).reshape(n, k, 3))
+        E = np.empty((n, k, 3, 6))
+        E[..., :3] = R1t
+        cross(p2.reshape(n, k, 1, 3), R1t, out=E[..., 3:])       # -B: rows p2 x (rows of R1^T)
+        # one (3 k x 6) (6 x ns) product per sample (not k small ones), masked in place: a fresh temporary
+        # of this size costs more than the product (measured 65 against 735 us for 256 samples)
+        Ck = E.reshape(n, 3 * k, 6) @ W
+        Ck *= row_masks(g.masks[1] - g.masks[0], 3)
+        return ck, Ck
+    ck, D1, D2 = group_rows(g, poses)
+    r = ck.shape[1]
+    # a coordinate that does not move an anchor contributes nothing: mask the product's columns
+    Ck = to_world(D1, R1, p1).reshape(n, k * r, 6) @ W
+    Ck *= row_masks(g.masks[0], r)
+    C2 = to_world(D2, R2, p2).reshape(n, k * r, 6) @ W
+    C2 *= row_masks(g.masks[1], r)
+    Ck += C2
+    return ck, Ck
 
 
 def parameter_rows(g: ClosureGroup, R: np.ndarray, p: np.ndarray, sides, frames, nc: int) -> np.ndarray:

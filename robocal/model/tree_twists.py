@@ -9,6 +9,8 @@ arrays stay small (n, n_active, 6, c) and the caller scatters them (robocal.mode
 """
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 
 from robocal.model.lie_arrays import adjoint
@@ -51,6 +53,12 @@ class TreeTwists:
         self.offset_v = np.array(self.offset_v, dtype=int)
         self.placed = np.flatnonzero(np.any(self.blocks != 0.0, axis=(1, 2)))   # active through a placement
         self.supports = {j: [a for a, i in enumerate(self.active) if int(i) in tree.supports[j]] for j in range(nj)}
+
+    def at_tree(self, tree: TreeArrays) -> "TreeTwists":
+        """These twists on `tree` (the same joints at another pass's placements; the parameter blocks equal)."""
+        out = copy.copy(self)
+        out.tree, out.model = tree, tree.model
+        return out
 
     @property
     def free_columns(self) -> np.ndarray:
