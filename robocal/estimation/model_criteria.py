@@ -26,7 +26,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg
-import scipy.optimize
 
 from robocal.estimation.calibrate import CalibrationOptions
 from robocal.estimation.cross_validation import RANGE_MARGIN, range_excess
@@ -247,6 +246,7 @@ def log_evidence(J: np.ndarray, y: np.ndarray, prior_sigma: np.ndarray, noise2: 
                      + m_eff * np.log(2 * np.pi))
 
     if noise2 is None:
+        import scipy.optimize   # 0.1-0.15 s: only the study's evidence needs it, not every command's start-up
         guess = np.log(max(float(yp @ yp) / max(m_eff, 1), 1e-300))
         best = scipy.optimize.minimize_scalar(neg2, bounds=(guess - 40.0, guess + 5.0), method="bounded",
                                               options={"xatol": 1e-9})
