@@ -14,6 +14,7 @@ from robocal.estimation.model_selection import Selection, closed_form_cv, ladder
 from robocal.workflows.calibrate import CalibrationRun, run_calibration
 from robocal.workflows.input_checks import check_inputs
 from robocal.workflows.config_read import read_config
+from robocal.workflows.config_types import CalibrationConfig
 from robocal.workflows.cv import make_folds
 from robocal.workflows.evaluate import setup_for_data
 from robocal.workflows.setup import build_setup
@@ -24,8 +25,10 @@ def select_model(config, folds: int | None = None, loo: bool = False, group: str
     """Score every rung of the ladder on held-out data and choose by the one-standard-error rule
     (docs/validation.md, "Choosing a model"): with two or more sessions, leave-one-session-out; with one, the
     closed-form leave-one-out by posture of each rung's fit (no refits); `folds`, `loo` or `group` ask for
-    refitted folds instead. The data pass the input checks first (notes go into the selection's notes)."""
-    config = read_config(config)
+    refitted folds instead. The data pass the input checks first (notes go into the selection's notes).
+    `config`: a YAML path or a CalibrationConfig (read once by the caller). With the closed form, each rung
+    keeps its fitted setup (`Selection.fits`): run_selected writes the chosen one without fitting it again."""
+    config = config if isinstance(config, CalibrationConfig) else read_config(config)
     base = build_setup(config)
     notes = check_inputs(base, allow_failed)
     closed_form = base.problem.sessions is None and folds is None and not loo and not group
@@ -36,7 +39,8 @@ def select_model(config, folds: int | None = None, loo: bool = False, group: str
     else:
         fold_list, label = make_folds(base, folds, loo, group)
     rungs = ladder(config.parameters.to_dict())
-    for rung in rungs:
+    fits = {}
+    for k, rung in enumerate(rungs):
         try:
             setup = setup_for_data(config, parameters=rung.parameters)
         except InputError as exc:
@@ -44,7 +48,9 @@ def select_model(config, folds: int | None = None, loo: bool = False, group: str
             continue
         rung.n_free = len(setup.problem.params.free_names)
         if closed_form:
-            calibrate(setup.problem, setup.options)
+            nominal = setup.problem.params.copy()
+            result = calibrate(setup.problem, setup.options, source=config.source)
+            fits[k] = (setup, nominal, result)
             rung.cv = closed_form_cv(setup.problem, fold_list)
         else:
             rung.cv = cv_table(setup.problem, fold_list, setup.options)
@@ -53,13 +59,19 @@ def select_model(config, folds: int | None = None, loo: bool = False, group: str
     if not np.any(np.isfinite(rms)):
         raise InputError("no model of the ladder could be fitted: " + "; ".join(r.skipped for r in rungs))
     chosen, best = one_standard_error(rms, se)
-    return Selection(rungs, chosen, best, label, notes=notes)
+    return Selection(rungs, chosen, best, label, notes=notes, fits=fits)
 
 
 def run_selected(config, selection: Selection, output_dir: str | Path | None = None, *, force: bool = False,
                  allow_failed: bool = False) -> CalibrationRun:
-    """Calibrate the chosen rung on all samples and write its folder, with selection.json beside."""
-    setup = setup_for_data(config, parameters=selection.rungs[selection.chosen].parameters)
+    """Calibrate the chosen rung on all samples and write its folder, with selection.json beside (the chosen
+    rung's fit from the selection when it kept one: the same setup and options, so the same fit)."""
     extra = {"selection.json": (json.dumps(selection.to_dict(), indent=2, allow_nan=True) + "\n").encode()}
+    kept = selection.fits.get(selection.chosen)
+    if kept is not None:
+        setup, nominal, result = kept
+        return run_calibration(setup, output_dir, force=force, allow_failed=allow_failed, extra=extra,
+                               fitted=(nominal, result))
+    setup = setup_for_data(config, parameters=selection.rungs[selection.chosen].parameters)
     return run_calibration(setup, output_dir, force=force, allow_failed=allow_failed, extra=extra,
-                           source=str(config))
+                           source=str(config.source if isinstance(config, CalibrationConfig) else config))
