@@ -133,6 +133,7 @@ def rms(values: np.ndarray) -> float:
 class HeldOut:
     raw: np.ndarray            # (n_data,) held-out SI residual of every data row (nan: undetermined fold)
     undetermined: list[int]    # folds whose removal leaves a parameter without data (their rows are nan)
+    steps: np.ndarray | None = None   # (folds, n) parameter change of each fold's leave-out (with steps=True)
 
 
 def _factor(J: np.ndarray) -> np.ndarray:
@@ -144,15 +145,18 @@ def _factor(J: np.ndarray) -> np.ndarray:
     return R
 
 
-def approximate_loo(lin: Linearised, folds: list[np.ndarray] | None = None) -> HeldOut:
+def approximate_loo(lin: Linearised, folds: list[np.ndarray] | None = None, steps: bool = False) -> HeldOut:
     """Held-out residuals of the linearised fit, each fold (sample indices) left out in turn (see module doc).
-    Default folds: every sample alone. A sample in no fold keeps nan."""
+    Default folds: every sample alone. A sample in no fold keeps nan. steps: also each fold's parameter change
+    d_G = (A^T A - J_G^T J_G)^-1 J_G^T r_G = R^-1 B e_G (Woodbury; e_G the scaled held-out residual), so the
+    training rows' residual after the leave-out is r + J d_G (nan for an undetermined fold)."""
     Jd, rd = lin.J[lin.data], lin.r[lin.data]
     R = _factor(lin.J)
     samples = lin.sample[lin.data]
     if folds is None:
         folds = [np.array([s]) for s in np.unique(samples)]
     out = np.full(len(rd), np.nan)
+    step = np.zeros((len(folds), lin.J.shape[1])) if steps else None
     bad = []
     for k, fold in enumerate(folds):
         rows = np.flatnonzero(np.isin(samples, fold))
@@ -164,9 +168,14 @@ def approximate_loo(lin: Linearised, folds: list[np.ndarray] | None = None) -> H
         w, V = np.linalg.eigh(M)
         if w.min() <= SINGULAR:
             bad.append(k)
+            if steps:
+                step[k] = np.nan
             continue
-        out[rows] = (V @ ((V.T @ rd[rows]) / w)) / lin.scale[lin.data][rows]
-    return HeldOut(out, bad)
+        e = V @ ((V.T @ rd[rows]) / w)
+        out[rows] = e / lin.scale[lin.data][rows]
+        if steps:
+            step[k] = scipy.linalg.solve_triangular(R, B @ e)
+    return HeldOut(out, bad, step)
 
 
 def effective_parameters(lin: Linearised) -> float:
