@@ -12,7 +12,7 @@ from robocal.workflows.config_read import read_config
 def cmd_select(args) -> int:
     config = read_config(args.config)                   # once, for the ladder and the chosen fit
     check_replaceable(args.output or config.output.dir, args.force)   # before the ladder's fits, not after them
-    selection = select_model(config, args.folds, args.loo, args.group, args.allow_failed)
+    selection = select_model(config, args.folds, args.loo, args.group, args.allow_failed, args.refits)
     for line in selection.table():
         print(line)
     run = run_selected(config, selection, args.output, force=args.force, allow_failed=args.allow_failed)
