@@ -90,3 +90,24 @@ def test_a_fold_that_leaves_a_parameter_without_data_has_no_step(tmp_path):
     lin.J[lin.data & (lin.sample != 0), 0] = 0.0       # only sample 0 sees the first parameter
     held = mc.approximate_loo(lin, posture_folds(values, 20), steps=True)
     assert held.undetermined == [0] and np.all(np.isnan(held.steps[0])) and np.all(np.isfinite(held.steps[1:]))
+
+
+def test_select_writes_the_chosen_rungs_fit_as_a_fresh_calibration_would(tmp_path):
+    # one session: every rung is fitted for its closed-form leave-one-out and run_selected writes the chosen
+    # rung's fit (run_calibration(fitted=...)) instead of fitting it again; the folder must be the one a fresh
+    # fit of that rung writes, file for file
+    from robocal.workflows.calibrate import run_calibration
+    from robocal.workflows.config_read import read_config
+    from robocal.workflows.select import run_selected, select_model
+    cfg, _, _ = write_case(tmp_path, np.random.default_rng(17), n=30)
+    config = read_config(cfg)
+    selection = select_model(config)
+    assert selection.chosen in selection.fits and "no refits" in selection.folds
+    kept = run_selected(config, selection, tmp_path / "kept")
+    fresh = setup_for_data(config, parameters=selection.rungs[selection.chosen].parameters)
+    extra = {"selection.json": (tmp_path / "kept" / "selection.json").read_bytes()}
+    run_calibration(fresh, tmp_path / "fresh", extra=extra)
+    names = sorted(p.name for p in (tmp_path / "kept").iterdir())
+    assert names == sorted(p.name for p in (tmp_path / "fresh").iterdir()) and "result.json" in names
+    for name in names:
+        assert (tmp_path / "kept" / name).read_bytes() == (tmp_path / "fresh" / name).read_bytes(), name
