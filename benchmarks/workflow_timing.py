@@ -11,7 +11,7 @@ waiting for a core does not inflate). "work" is the command's CPU time minus tha
 pinocchio"` (interpreter, numpy and Pinocchio: what every command starts with) in the same run.
 
 Examples: the demo (robocal/io/demo/ur5_calibrate.yaml), examples/tiago_mocap/*.yaml (the select_* configs are
-timed with `robocal select` and `cv`), examples/closed_loops/*.yaml, examples/tiago_dynamics/identify.yaml,
+timed with `robocal select` and `cv`), examples/closed_loops/*.yaml, examples/camera/camera.yaml (select and cv), examples/tiago_dynamics/identify.yaml,
 examples/plan_ur5.yaml, and an ISO 9283 data set written by this script (tests/test_iso9283_cli.py's recipe).
 """
 from __future__ import annotations
@@ -86,6 +86,10 @@ def cases(tmp: Path) -> list[tuple[str, str, object]]:
         out.append(("select", label, lambda d, c=cfg: ["select", str(c), "-o", str(d / c.stem), "--force", "-q"]))
         out.append(("cv", label, lambda d, c=cfg: ["cv", str(c), "-q"]))
         out.append(("cv --loo", label, lambda d, c=cfg: ["cv", str(c), "--loo", "-q"]))
+    camera = EX / "camera" / "camera.yaml"
+    out.append(("select", "camera", lambda d: ["select", str(camera), "-o", str(d / "camera"), "--force", "-q"]))
+    out.append(("cv", "camera", lambda d: ["cv", str(camera), "-q"]))
+    out.append(("cv --loo", "camera", lambda d: ["cv", str(camera), "--loo", "-q"]))
     iso = iso9283_config(tmp / "iso")
     out.append(("iso9283", "ur5 iso (50 + 18 rows)", lambda d: ["iso9283", str(iso), "-q"]))
     out.append(("plan", "plan_ur5.yaml", lambda d: ["plan", str(EX / "plan_ur5.yaml"), "-o", str(d / "plan"),

@@ -11,7 +11,7 @@ cost of one fit and one factorisation; each fold keeps the full fit's identifiab
 `leave_out_table` gives the table `cross_validation.cv_table` gives (per fold: held-out samples, train and
 held-out RMS of the error norm; pooled figures with the standard error across folds), or says why the
 linearised fit does not allow it, and the caller refits: a robust loss (the linearisation ignores its weights),
-a term spanning several samples, measurements other than lengths and angles (pixels), a fold that is a whole
+a term spanning several samples, measurements other than lengths, angles and image points, a fold that is a whole
 re-registered session (its frame is registered on it: a refit), a fit that did not converge or is
 ill-conditioned, a Jacobian without full column rank, or a fold whose removal leaves a parameter without data.
 """
@@ -25,7 +25,7 @@ from robocal.estimation.model_criteria import approximate_loo, linearise, norms
 from robocal.estimation.problem import Problem
 from robocal.residuals.base import Residual
 
-KINDS = (("length", "mm"), ("angle", "mrad"))      # the units cv_table reports, lengths first
+KINDS = (("length", "mm"), ("angle", "mrad"), ("pixel", "px"))   # the units cv_table reports, in its order
 STATUS = "closed form"                             # a fold's status: predicted from the fit, not refitted
 
 
@@ -36,9 +36,9 @@ def closed_form_refusal(problem: Problem, folds: list[np.ndarray], options: Cali
         return f"the {opt.loss} loss (the closed form reads the plain linearisation)"
     if any(type(r).term_samples is not Residual.term_samples for r in problem.residuals):
         return "a measurement term spans several samples"
-    kinds = {u for r in problem.residuals for u in r.row_units}
-    if kinds - {k for k, _ in KINDS}:
-        return "measurements other than lengths and angles (" + ", ".join(sorted(kinds - {"length", "angle"})) + ")"
+    kinds = {u for r in problem.residuals for u in r.row_units} - {k for k, _ in KINDS}
+    if kinds:
+        return "measurements other than lengths, angles and image points (" + ", ".join(sorted(kinds)) + ")"
     if any(held_out_frames(problem, fold) for fold in folds):
         return "a held-out session's frame is registered on it"
     return ""

@@ -30,11 +30,12 @@ import scipy.linalg
 from robocal.estimation.calibrate import CalibrationOptions
 from robocal.estimation.cross_validation import RANGE_MARGIN, range_excess
 from robocal.estimation.physical_scale import physical_scales
+from robocal.estimation.prediction_errors import GROUP
 from robocal.estimation.problem import Problem
 from robocal.estimation.regularisation import RANK_TOL, STRENGTHS, project_out
 from robocal.estimation.registration import register_nominal
 
-UNIT_TO_REPORT = {"length": 1e3, "angle": 1e3}     # SI -> mm, mrad
+UNIT_TO_REPORT = {"length": 1e3, "angle": 1e3}     # SI -> mm, mrad (pixels stay px)
 SINGULAR = 1e-10       # a fold whose (I - H_GG) has a pivot this small leaves a parameter undetermined
 
 
@@ -72,12 +73,14 @@ def linearise(problem: Problem) -> Linearised:
         units = np.array(res.row_units)[keep]
         n_keep = int(keep.sum())
         start = b.rows.start
-        # the rows of one term of one unit kind: triples are 3D points / orientations, else single rows
+        # the rows of one term of one unit kind: triples are 3D points / orientations, pairs image points
+        # (prediction_errors.GROUP), else single rows
         per_term = np.zeros(n_keep, int)
         offset = 0
         for u in dict.fromkeys(units):
             idx = np.flatnonzero(units == u)
-            ids = np.arange(len(idx)) // 3 if len(idx) % 3 == 0 else np.arange(len(idx))
+            g = GROUP.get(u, 3)
+            ids = np.arange(len(idx)) // g if len(idx) % g == 0 else np.arange(len(idx))
             per_term[idx] = ids + offset
             offset += ids.max() + 1
         samples = np.asarray(res.samples)
