@@ -2,7 +2,7 @@
 
     OMP_NUM_THREADS=1 python benchmarks/cv_closed_form.py [--only WORD] [--loo-only]
 
-For each config (the demo UR5, examples/tiago_mocap/*.yaml, examples/closed_loops/*.yaml) and each of 5-fold by
+For each config (the demo UR5, examples/tiago_mocap/*.yaml, examples/closed_loops/*.yaml, the camera) and each of 5-fold by
 posture and leave-one-posture-out: the held-out RMS of the error norm, its standard error across folds and the
 train RMS, from the closed form (robocal.estimation.leave_out, what `robocal cv` does by default) and from refits
 (`robocal cv --refits`), the largest difference of a fold's held-out RMS, and the CPU seconds of each (in this
@@ -25,6 +25,7 @@ def configs() -> list[tuple[str, Path]]:
     out = [("demo ur5", ROOT / "robocal" / "io" / "demo" / "ur5_calibrate.yaml")]
     out += [(f"tiago {p.stem}", p) for p in sorted((ROOT / "examples" / "tiago_mocap").glob("*.yaml"))]
     out += [(f"closed {p.stem}", p) for p in sorted((ROOT / "examples" / "closed_loops").glob("*.yaml"))]
+    out.append(("camera", ROOT / "examples" / "camera" / "camera.yaml"))
     return out
 
 

@@ -117,7 +117,8 @@ def test_image_points_closed_form_matches_refitted_folds():
     # the camera example (20 images of a checkerboard, 0.3 px noise per coordinate, ~1000 corners): a refit
     # without a fold of 4 images moves the hand-eye and intrinsics by about the noise over sqrt(800) corners,
     # so the dropped second-order terms are far below 1e-3 px; the refits also re-choose the default prior,
-    # which moved a fold's figure by under 1e-3 px on 5 folds of this example. Every corner is a 2D norm (u, v together).
+    # which moved a fold's figure by under 1e-3 px on 5 folds of this example. Every corner is a 2D norm (u, v
+    # together).
     from pathlib import Path
     example = Path(__file__).parents[1] / "examples" / "camera" / "camera.yaml"
     closed, how, _ = run_cv(example, folds=3)

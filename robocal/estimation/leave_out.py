@@ -11,8 +11,8 @@ cost of one fit and one factorisation; each fold keeps the full fit's identifiab
 `leave_out_table` gives the table `cross_validation.cv_table` gives (per fold: held-out samples, train and
 held-out RMS of the error norm; pooled figures with the standard error across folds), or says why the
 linearised fit does not allow it, and the caller refits: a robust loss (the linearisation ignores its weights),
-a term spanning several samples, measurements other than lengths, angles and image points, a fold that is a whole
-re-registered session (its frame is registered on it: a refit), a fit that did not converge or is
+a term spanning several samples, measurements other than lengths, angles and image points, a fold that is a
+whole re-registered session (its frame is registered on it: a refit), a fit that did not converge or is
 ill-conditioned, a Jacobian without full column rank, or a fold whose removal leaves a parameter without data.
 """
 from __future__ import annotations

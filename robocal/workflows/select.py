@@ -26,8 +26,8 @@ def select_model(config, folds: int | None = None, loo: bool = False, group: str
     (docs/validation.md, "Choosing a model"): with two or more sessions, leave-one-session-out; with one, the
     closed-form leave-one-out by posture of each rung's fit (no refits); `folds`, `loo` or `group` ask for
     those folds, scored as `robocal cv` scores them (workflows.cv.fold_table: the closed-form leave-out where
-    the linearised fit allows it, else or with `refits` refitted). The data pass the input checks first (notes go into the selection's notes).
-    `config`: a YAML path or a CalibrationConfig (read once by the caller). With the closed form, each rung
+    the linearised fit allows it, else or with `refits` refitted). The data pass the input checks first (notes
+    go into the selection's notes). `config`: a YAML path or a CalibrationConfig (read once by the caller). With the closed form, each rung
     keeps its fitted setup (`Selection.fits`): run_selected writes the chosen one without fitting it again."""
     config = config if isinstance(config, CalibrationConfig) else read_config(config)
     base = build_setup(config)
