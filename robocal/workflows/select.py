@@ -13,7 +13,7 @@ from robocal.estimation.cross_validation import posture_folds
 from robocal.estimation.model_selection import Selection, closed_form_cv, ladder, one_standard_error
 from robocal.workflows.calibrate import CalibrationRun, run_calibration
 from robocal.workflows.input_checks import check_inputs
-from robocal.workflows.config_read import read_config
+from robocal.workflows.config_read import read_config, with_parameters
 from robocal.workflows.config_types import CalibrationConfig
 from robocal.workflows.cv import fold_table, make_folds
 from robocal.workflows.evaluate import setup_for_data
@@ -27,8 +27,9 @@ def select_model(config, folds: int | None = None, loo: bool = False, group: str
     closed-form leave-one-out by posture of each rung's fit (no refits); `folds`, `loo` or `group` ask for
     those folds, scored as `robocal cv` scores them (workflows.cv.fold_table: the closed-form leave-out where
     the linearised fit allows it, else or with `refits` refitted). The data pass the input checks first (notes
-    go into the selection's notes). `config`: a YAML path or a CalibrationConfig (read once by the caller). With the closed form, each rung
-    keeps its fitted setup (`Selection.fits`): run_selected writes the chosen one without fitting it again."""
+    go into the selection's notes). `config`: a YAML path or a CalibrationConfig (read once by the caller).
+    With the closed form, each rung keeps its fitted setup (`Selection.fits`): run_selected writes the chosen
+    one without fitting it again."""
     config = config if isinstance(config, CalibrationConfig) else read_config(config)
     base = build_setup(config)
     notes = check_inputs(base, allow_failed)
@@ -41,9 +42,14 @@ def select_model(config, folds: int | None = None, loo: bool = False, group: str
         fold_list, label = make_folds(base, folds, loo, group)
     rungs = ladder(config.parameters.to_dict())
     fits, hows = {}, []
+    spare = base                           # the config's own set-up serves the rung that is the config
     for k, rung in enumerate(rungs):
         try:
-            setup = setup_for_data(config, parameters=rung.parameters)
+            rung_config = with_parameters(config, rung.parameters)
+            if spare is not None and rung_config == config:
+                setup, spare = spare, None     # not built twice (a camera's set-up solves a PnP per image)
+            else:
+                setup = build_setup(rung_config)
         except InputError as exc:
             rung.skipped = exc.reason
             continue
