@@ -189,24 +189,3 @@ def test_unordered_and_repeated_samples_match_the_reference():
     rows = problem.blocks[-1].rows if problem.blocks[-1].name == "unordered" else problem.blocks[-2].rows
     assert _relative(ev.r[rows], ref.r[rows]) < RTOL
     assert _relative(ev.J[rows], ref.J[rows]) < RTOL
-
-
-def test_rigid_points_batched_match_the_per_sample_reference():
-    """A mocap cluster (rigid_points, four estimated points) beside a point block, with compliance and backlash:
-    the batched path (residuals.rigid_points.evaluate_batch) against the per-sample reference, to 1e-10."""
-    from robocal.residuals import RigidPointsResidual
-    full = _problem(np.random.default_rng(15))
-    rng = np.random.default_rng(16)
-    n = len(full.values)
-    hand = RigidPointsResidual("hand", "tcp", np.arange(n), rng.normal(0.4, 0.2, (n, 12)),
-                               points=rng.normal(0, 0.05, (4, 3)), labels=["a", "b", "c", "d"], points_unknown=True)
-    hand.weights[2] = 0.0       # a dropped term keeps the row bookkeeping honest
-    problem = Problem(full.robot, full.params, full.joint_names, full.values, [hand, full.residuals[1]],
-                      directions=full.directions)
-    free_auxiliaries(problem.params, rng)
-    assert problem.params["hand.c.y"].vary
-    assert hand.batched and supports_batch(problem.model_state())
-    ev, ref = problem.evaluate(), reference_evaluate(problem)
-    assert _relative(ev.r, ref.r) < RTOL and _relative(ev.raw, ref.raw) < RTOL
-    for block in problem.blocks:
-        assert _relative(ev.J[block.rows], ref.J[block.rows]) < RTOL, block.name

@@ -9,8 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from robocal.model import lie_arrays
-from robocal.residuals.base import BatchTerms, Residual, Term, point_jacobian, vector_aux
+from robocal.residuals.base import Residual, Term, point_jacobian, vector_aux
 
 
 class RigidPointsResidual(Residual):
@@ -47,16 +46,6 @@ class RigidPointsResidual(Residual):
         for j in range(len(P)):
             A[3 * j:3 * j + 3, 3 * j:3 * j + 3] = M.rotation
         return Term(r, [(i, self.frame, D)], A)
-
-    def evaluate_batch(self, terms, R, p, aux):
-        P = aux.reshape(-1, 3)
-        n, k = len(R), len(P)
-        r = (np.einsum("nij,kj->nki", R, P) + p[:, None, :]).reshape(n, -1) - self.measurements[terms]
-        D = np.concatenate([lie_arrays.point_jacobian(R, q) for q in P], axis=1)
-        A = np.zeros((n, self.dim, self.dim))
-        for j in range(k):
-            A[:, 3 * j:3 * j + 3, 3 * j:3 * j + 3] = R
-        return BatchTerms(r, D, A)
 
     def simulate(self, k, states, aux, rng):
         M = states[self.samples[k]].pose(self.frame)
