@@ -1,6 +1,6 @@
 """Benchmark: every command on every shipped example, end to end in a fresh process, against a baseline tree.
 
-    OMP_NUM_THREADS=1 python benchmarks/workflow_timing.py [--baseline COMMIT] [--repeats 5] [--only WORD]
+    OMP_NUM_THREADS=1 python benchmarks/workflow_timing.py [--baseline COMMIT] [--repeats 5] [--only WORD] [--skip WORD]
 
 Each run is `python -c "from robocal.cli.main import main; sys.argv = ['robocal', *ARGS]; main()"` with one
 tree first on sys.path, as the `robocal` script runs it, bytecode compiled first (benchmarks/cli_timing.py: what pip leaves installed). The
@@ -11,9 +11,10 @@ waiting for a core does not inflate). "work" is the command's CPU time minus tha
 pinocchio"` (interpreter, numpy and Pinocchio: what every command starts with) in the same run.
 
 Examples: the demo (robocal/io/demo/ur5_calibrate.yaml), examples/tiago_mocap/*.yaml (the select_* configs are
-`robocal select`'s, not timed here), examples/closed_loops/*.yaml, examples/plan_ur5.yaml, an ISO 9283 data set
-written by this script (tests/test_iso9283_cli.py's recipe), and the dynamics configs examples/tiago_dynamics/
-identify.yaml and examples/motor_dynamics/{ur5_coupled,tiago_wrist}.yaml (identify, then evaluate of its folder).
+timed with `robocal select` and `cv`), examples/closed_loops/*.yaml, examples/camera/camera.yaml (select and cv),
+examples/plan_ur5.yaml, an ISO 9283 data set written by this script (tests/test_iso9283_cli.py's recipe), and the
+dynamics configs examples/tiago_dynamics/identify.yaml and examples/motor_dynamics/{ur5_coupled,tiago_wrist}.yaml
+(identify, then evaluate of its folder).
 """
 from __future__ import annotations
 
@@ -81,6 +82,17 @@ def cases(tmp: Path) -> list[tuple[str, str, object]]:
         out.append(("evaluate", label, lambda d, k=key, v=data: ["evaluate", str(d / k), str(v)]))
         out.append(("report", label, lambda d, k=key: ["report", str(d / k), "-q"]))
         out.append(("view --html", label, lambda d, k=key: ["view", str(d / k), "--html", str(d / f"{k}.html"), "-q"]))
+        out.append(("cv", label, lambda d, c=cfg: ["cv", str(c), "-q"]))
+        out.append(("cv --loo", label, lambda d, c=cfg: ["cv", str(c), "--loo", "-q"]))
+    for cfg in sorted(TIAGO.glob("select*.yaml")):
+        label = f"tiago {cfg.stem}"
+        out.append(("select", label, lambda d, c=cfg: ["select", str(c), "-o", str(d / c.stem), "--force", "-q"]))
+        out.append(("cv", label, lambda d, c=cfg: ["cv", str(c), "-q"]))
+        out.append(("cv --loo", label, lambda d, c=cfg: ["cv", str(c), "--loo", "-q"]))
+    camera = EX / "camera" / "camera.yaml"
+    out.append(("select", "camera", lambda d: ["select", str(camera), "-o", str(d / "camera"), "--force", "-q"]))
+    out.append(("cv", "camera", lambda d: ["cv", str(camera), "-q"]))
+    out.append(("cv --loo", "camera", lambda d: ["cv", str(camera), "--loo", "-q"]))
     iso = iso9283_config(tmp / "iso")
     out.append(("iso9283", "ur5 iso (50 + 18 rows)", lambda d: ["iso9283", str(iso), "-q"]))
     out.append(("plan", "plan_ur5.yaml", lambda d: ["plan", str(EX / "plan_ur5.yaml"), "-o", str(d / "plan"),
@@ -125,6 +137,7 @@ def main():
     ap.add_argument("--baseline", default=None, help="commit of the baseline tree (default: merge base with main)")
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--only", action="append", default=[], help="time only rows whose command or example holds this")
+    ap.add_argument("--skip", action="append", default=[], help="leave out rows whose 'command example' holds this")
     ap.add_argument("--no-baseline", action="store_true", help="time this tree alone")
     args = ap.parse_args()
     commit = args.baseline or subprocess.run(["git", "-C", str(ROOT), "merge-base", "HEAD", "main"], check=True,
@@ -138,6 +151,7 @@ def main():
             compile_bytecode(root)
         rows = [c for c in cases(tmp) if not args.only or c[2] is None or c[0] == "robocal --version"
                 or any(w in c[0] or w in c[1] for w in args.only)]
+        rows = [c for c in rows if not any(w in f"{c[0]} {c[1]}" for w in args.skip)]
         times: dict[tuple, list] = {}
         load = os.getloadavg()[0]
         for rep in range(args.repeats):

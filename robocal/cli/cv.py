@@ -7,15 +7,15 @@ from robocal.workflows.cv import run_cv
 
 
 def cmd_cv(args) -> int:
-    table, label, notes = run_cv(args.config, args.folds, args.loo, args.group, args.allow_failed)
+    table, label, notes = run_cv(args.config, args.folds, args.loo, args.group, args.allow_failed, args.refits)
     for note in notes:
         print(f"robocal: {note}", file=sys.stderr)
     u = table.unit
     if args.quiet:
         print(f"held-out RMS {table.rms:.4g} {u} +- {table.stderr:.2g} {u} ({label})")
         return 0
-    print(f"Cross-validation of {args.config}, {label}: RMS of the error norm ({u}), each fold fitted without "
-          "its samples")
+    print(f"Cross-validation of {args.config}, {label}: RMS of the error norm ({u}), each fold predicted "
+          "without its samples")
     print(f"  {'fold':>4}{'held out':>10}{'train RMS':>12}{'held-out RMS':>14}  status")
     for k, f in enumerate(table.folds, 1):
         va = f"{f['validation_rms_norm']:.4g}" if f["validation_rms_norm"] is not None else "n/a"
@@ -35,6 +35,8 @@ def add_fold_arguments(parser) -> None:
                                                 "session)")
     how.add_argument("--loo", action="store_true", help="leave one posture out (repeats of a posture together)")
     how.add_argument("--group", metavar="COLUMN", help="leave one group out: samples sharing this CSV column's value")
+    parser.add_argument("--refits", action="store_true", help="refit every fold instead of the closed-form leave-out "
+                                                              "update of the fit on all samples")
 
 
 def add_parser(subparsers) -> None:

@@ -10,14 +10,12 @@ from robocal.workflows.config_read import read_config
 
 
 def cmd_select(args) -> int:
-    if args.output:
-        check_replaceable(args.output, args.force)     # before the ladder's fits, not only after them
-    else:
-        check_replaceable(read_config(args.config).output.dir, args.force)
-    selection = select_model(args.config, args.folds, args.loo, args.group, args.allow_failed)
+    config = read_config(args.config)                   # once, for the ladder and the chosen fit
+    check_replaceable(args.output or config.output.dir, args.force)   # before the ladder's fits, not after them
+    selection = select_model(config, args.folds, args.loo, args.group, args.allow_failed, args.refits)
     for line in selection.table():
         print(line)
-    run = run_selected(args.config, selection, args.output, force=args.force, allow_failed=args.allow_failed)
+    run = run_selected(config, selection, args.output, force=args.force, allow_failed=args.allow_failed)
     print(f"\nChosen: {selection.rungs[selection.chosen].name}, fitted on all samples:\n")
     return print_run(run, args.quiet, selection.notes)
 

@@ -26,16 +26,16 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg
-import scipy.optimize
 
 from robocal.estimation.calibrate import CalibrationOptions
 from robocal.estimation.cross_validation import RANGE_MARGIN, range_excess
 from robocal.estimation.physical_scale import physical_scales
+from robocal.estimation.prediction_errors import GROUP
 from robocal.estimation.problem import Problem
 from robocal.estimation.regularisation import RANK_TOL, STRENGTHS, project_out
 from robocal.estimation.registration import register_nominal
 
-UNIT_TO_REPORT = {"length": 1e3, "angle": 1e3}     # SI -> mm, mrad
+UNIT_TO_REPORT = {"length": 1e3, "angle": 1e3}     # SI -> mm, mrad (pixels stay px)
 SINGULAR = 1e-10       # a fold whose (I - H_GG) has a pivot this small leaves a parameter undetermined
 
 
@@ -73,12 +73,14 @@ def linearise(problem: Problem) -> Linearised:
         units = np.array(res.row_units)[keep]
         n_keep = int(keep.sum())
         start = b.rows.start
-        # the rows of one term of one unit kind: triples are 3D points / orientations, else single rows
+        # the rows of one term of one unit kind: triples are 3D points / orientations, pairs image points
+        # (prediction_errors.GROUP), else single rows
         per_term = np.zeros(n_keep, int)
         offset = 0
         for u in dict.fromkeys(units):
             idx = np.flatnonzero(units == u)
-            ids = np.arange(len(idx)) // 3 if len(idx) % 3 == 0 else np.arange(len(idx))
+            g = GROUP.get(u, 3)
+            ids = np.arange(len(idx)) // g if len(idx) % g == 0 else np.arange(len(idx))
             per_term[idx] = ids + offset
             offset += ids.max() + 1
         samples = np.asarray(res.samples)
@@ -134,6 +136,7 @@ def rms(values: np.ndarray) -> float:
 class HeldOut:
     raw: np.ndarray            # (n_data,) held-out SI residual of every data row (nan: undetermined fold)
     undetermined: list[int]    # folds whose removal leaves a parameter without data (their rows are nan)
+    steps: np.ndarray | None = None   # (folds, n) parameter change of each fold's leave-out (with steps=True)
 
 
 def _factor(J: np.ndarray) -> np.ndarray:
@@ -145,15 +148,18 @@ def _factor(J: np.ndarray) -> np.ndarray:
     return R
 
 
-def approximate_loo(lin: Linearised, folds: list[np.ndarray] | None = None) -> HeldOut:
+def approximate_loo(lin: Linearised, folds: list[np.ndarray] | None = None, steps: bool = False) -> HeldOut:
     """Held-out residuals of the linearised fit, each fold (sample indices) left out in turn (see module doc).
-    Default folds: every sample alone. A sample in no fold keeps nan."""
+    Default folds: every sample alone. A sample in no fold keeps nan. steps: also each fold's parameter change
+    d_G = (A^T A - J_G^T J_G)^-1 J_G^T r_G = R^-1 B e_G (Woodbury; e_G the scaled held-out residual), so the
+    training rows' residual after the leave-out is r + J d_G (nan for an undetermined fold)."""
     Jd, rd = lin.J[lin.data], lin.r[lin.data]
     R = _factor(lin.J)
     samples = lin.sample[lin.data]
     if folds is None:
         folds = [np.array([s]) for s in np.unique(samples)]
     out = np.full(len(rd), np.nan)
+    step = np.zeros((len(folds), lin.J.shape[1])) if steps else None
     bad = []
     for k, fold in enumerate(folds):
         rows = np.flatnonzero(np.isin(samples, fold))
@@ -165,9 +171,14 @@ def approximate_loo(lin: Linearised, folds: list[np.ndarray] | None = None) -> H
         w, V = np.linalg.eigh(M)
         if w.min() <= SINGULAR:
             bad.append(k)
+            if steps:
+                step[k] = np.nan
             continue
-        out[rows] = (V @ ((V.T @ rd[rows]) / w)) / lin.scale[lin.data][rows]
-    return HeldOut(out, bad)
+        e = V @ ((V.T @ rd[rows]) / w)
+        out[rows] = e / lin.scale[lin.data][rows]
+        if steps:
+            step[k] = scipy.linalg.solve_triangular(R, B @ e)
+    return HeldOut(out, bad, step)
 
 
 def effective_parameters(lin: Linearised) -> float:
@@ -247,6 +258,7 @@ def log_evidence(J: np.ndarray, y: np.ndarray, prior_sigma: np.ndarray, noise2: 
                      + m_eff * np.log(2 * np.pi))
 
     if noise2 is None:
+        import scipy.optimize   # 0.1-0.15 s: only the study's evidence needs it, not every command's start-up
         guess = np.log(max(float(yp @ yp) / max(m_eff, 1), 1e-300))
         best = scipy.optimize.minimize_scalar(neg2, bounds=(guess - 40.0, guess + 5.0), method="bounded",
                                               options={"xatol": 1e-9})

@@ -50,6 +50,7 @@ class Selection:
     folds: str
     rule: str = "one-standard-error rule: the simplest model within one standard error of the lowest held-out RMS"
     notes: list[str] = field(default_factory=list)
+    fits: dict = field(default_factory=dict, repr=False)   # rung index -> (setup, nominal, result) of its full fit
 
     def table(self) -> list[str]:
         unit = next((r.cv.unit for r in self.rungs if r.cv), "mm")
@@ -151,14 +152,14 @@ def rung_by_sessions(make_sessions: Callable[[], list[Problem]], options: Calibr
 
 def closed_form_cv(problem: Problem, folds: list[np.ndarray]) -> CVTable:
     """The closed-form leave-one-out of a fitted problem over `folds` (whole postures) as a CV table: held-out
-    and training RMS of the error norm (mm for points; mrad of pose blocks as a second unit) with the held-out
-    standard error over the points (no refits)."""
+    and training RMS of the error norm (mm for points; mrad of pose blocks as a second unit; px of image points)
+    with the held-out standard error over the points (no refits)."""
     lin = linearise(problem)
     raw = approximate_loo(lin, folds).raw
     raw = np.where(np.isnan(raw), np.inf, raw)
     fitted_raw = lin.r[lin.data] / lin.scale[lin.data]      # the fit's own SI residual of every data row
     figures = {}
-    for kind, unit in (("length", "mm"), ("angle", "mrad")):
+    for kind, unit in (("length", "mm"), ("angle", "mrad"), ("pixel", "px")):
         if not np.any(lin.data & (lin.kind == kind)):
             continue
         _, held = norms(lin, raw, kind)

@@ -55,21 +55,26 @@ def sigma_ratio(result: CalibrationResult) -> float:
 def run_calibration(setup: Setup, output_dir: str | Path | None = None, *, force: bool = False,
                     allow_failed: bool = False, report: bool | None = None, progress: Callable | None = None,
                     extra: dict[str, bytes] | None = None, accept_sigma_ratio: float | None = None,
-                    source: str | None = None) -> CalibrationRun:
+                    source: str | None = None, fitted: tuple | None = None) -> CalibrationRun:
     """Fit `setup` and write its output folder (default: the config's output.dir); see the module docstring.
 
     report None follows the config's output.report; extra: more files for the folder (selection.json);
     accept_sigma_ratio: a converged fit whose residual/sigma exceeds it writes no URDF (a fleet's accept rule);
-    progress: called with each solver iteration. Raises InputError (nothing written) for bad input."""
+    progress: called with each solver iteration; fitted: (nominal ParameterSet, CalibrationResult) of a
+    `calibrate(setup.problem, setup.options)` already run on this setup, whose inputs were checked (robocal select
+    fits every rung: the chosen one is not fitted twice). Raises InputError (nothing written) for bad input."""
     out = Path(output_dir).resolve() if output_dir is not None else setup.output_dir
     check_replaceable(out, force)
     if setup.config.iso9283 is not None:
         check_iso9283(setup)                     # a mistake there costs no fitting time
-    warnings, notes = check_inputs(setup, allow_failed), []
     problem = setup.problem
-    nominal = problem.params.copy()
-    result = calibrate(problem, setup.options, progress=progress,
-                       source=source or ", ".join(str(t.path) for t in setup.tables.values()))
+    if fitted is None:
+        warnings, notes = check_inputs(setup, allow_failed), []
+        nominal = problem.params.copy()
+        result = calibrate(problem, setup.options, progress=progress,
+                           source=source or ", ".join(str(t.path) for t in setup.tables.values()))
+    else:
+        (nominal, result), warnings, notes = fitted, [], []
     rejected = ""
     if accept_sigma_ratio is not None and result.solve.success and sigma_ratio(result) > accept_sigma_ratio:
         rms = "; ".join(f"{b.name} " + ", ".join(f"{v:.4g} {k}" for k, v in b.rms.items()) for b in result.after)

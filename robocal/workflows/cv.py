@@ -7,17 +7,38 @@ import numpy as np
 
 from robocal.errors import InputError
 from robocal.estimation.cross_validation import CVTable, cv_table, posture_folds, session_folds
+from robocal.estimation.leave_out import leave_out_table
+from robocal.estimation.problem import Problem
 from robocal.workflows.input_checks import check_inputs
 from robocal.workflows.setup import load_config
 
 
 def run_cv(config: str | Path, folds: int | None = None, loo: bool = False, group: str | None = None,
-           allow_failed: bool = False) -> tuple[CVTable, str, list[str]]:
-    """(the CV table, how the folds were made, notes) of a config; its data pass the units check first."""
+           allow_failed: bool = False, refits: bool = False) -> tuple[CVTable, str, list[str]]:
+    """(the CV table, how the folds were made, notes) of a config; its data pass the units check first. The
+    folds are the closed-form leave-out updates of the fit on all samples where its linearisation allows it
+    (robocal.estimation.leave_out), else (or with `refits`) each fold is refitted."""
     setup = load_config(config)
     notes = check_inputs(setup, allow_failed)
     fold_list, label = make_folds(setup, folds, loo, group)
-    return cv_table(setup.problem, fold_list, setup.options), label, notes
+    table, how = fold_table(setup.problem, fold_list, setup.options, refits)
+    return table, f"{label}, {how}", notes
+
+
+def fold_table(problem, folds: list[np.ndarray], options, refits: bool = False) -> tuple[CVTable, str]:
+    """(CV table, how its folds were scored): the closed-form leave-out of the fit on all samples, or refits
+    when asked for or when the linearised fit does not allow it (the reason in the description). `problem` may
+    end fitted."""
+    why = "refitted (--refits)"
+    if not refits:
+        start = problem.params.copy()
+        table, reason = leave_out_table(problem, folds, options)
+        if table is not None:
+            return table, "closed-form leave-out of the fit on all samples (no refits)"
+        why = f"refitted ({reason})"
+        problem = Problem(problem.robot, start, problem.joint_names, problem.values, problem.residuals,
+                          problem.directions, problem.sessions)
+    return cv_table(problem, folds, options), why
 
 
 def group_folds(setup, column: str) -> list[np.ndarray]:
