@@ -1,6 +1,7 @@
 """`robocal cv`'s closed-form leave-out updates (robocal.estimation.leave_out) against explicit refits: exact on a
 linear problem, within what the linearisation predicts on a calibration, and refits where it does not apply."""
 import dataclasses
+from pathlib import Path
 
 import numpy as np
 
@@ -141,3 +142,21 @@ def test_select_scores_image_points_by_the_closed_form():
     figures = {r.name: r.cv for r in selection.rungs}
     assert figures["registration"].unit == "px" and figures["registration"].rms > 2.0
     assert 0.35 < figures["joint offsets"].rms < 0.5 and selection.rungs[selection.chosen].name != "registration"
+
+
+def test_cv_of_a_fit_that_fails_is_refused_unless_allowed(tmp_path, capsys):
+    """The demo with a cap of 1 iteration: the fit on all samples does not converge, so `robocal cv` stops
+    (exit 3) with the fit's refusal and its fix instead of refitting every fold to the same end; with
+    --allow-failed the folds are refitted, each saying it did not converge."""
+    import shutil
+    from robocal.cli.main import main
+    demo = Path(__file__).parents[1] / "robocal" / "io" / "demo"
+    for f in ("ur5_calibrate.yaml", "ur5_tracker_poses.csv"):
+        shutil.copy(demo / f, tmp_path / f)
+    config = tmp_path / "ur5_calibrate.yaml"
+    config.write_text(config.read_text() + "solver: {max_iterations: 1}\n")
+    assert main(["cv", str(config), "-q"]) == 3
+    err = capsys.readouterr().err
+    assert "the fit on all samples is not converged" in err and "cap of 1 iteration" in err and "Fix:" in err
+    assert main(["cv", str(config), "-q", "--folds", "3", "--allow-failed"]) == 0
+    assert "refitted (the fit on all samples is not converged)" in capsys.readouterr().out

@@ -3,11 +3,20 @@ from __future__ import annotations
 
 import sys
 
+from robocal.estimation.leave_out import FitFailed
 from robocal.workflows.cv import run_cv
 
 
 def cmd_cv(args) -> int:
-    table, label, notes = run_cv(args.config, args.folds, args.loo, args.group, args.allow_failed, args.refits)
+    try:
+        table, label, notes = run_cv(args.config, args.folds, args.loo, args.group, args.allow_failed, args.refits)
+    except FitFailed as failed:
+        print(f"robocal: {failed}: no fold figure is worth refitting for a model its own data cannot fit. Fix the "
+              "fit first (`robocal calibrate` prints why and how), or pass --allow-failed (or --refits) to refit "
+              "every fold anyway.", file=sys.stderr)
+        for line in failed.result.refusal_lines():
+            print(f"robocal: {line}", file=sys.stderr)
+        return 3
     for note in notes:
         print(f"robocal: {note}", file=sys.stderr)
     u = table.unit
@@ -43,5 +52,6 @@ def add_parser(subparsers) -> None:
     c = subparsers.add_parser("cv", help="cross-validate a calibration config (K-fold, leave-one-out or grouped)")
     c.add_argument("config", help="calibration YAML (docs/config.md)")
     add_fold_arguments(c)
-    c.add_argument("--allow-failed", action="store_true", help="go on despite implausible data (a units mix-up)")
+    c.add_argument("--allow-failed", action="store_true", help="go on despite implausible data (a units mix-up) or "
+                                                                "a fit on all samples that fails (the folds refitted)")
     c.set_defaults(handler=cmd_cv)

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from robocal.errors import RobocalError
 from robocal.estimation.calibrate import CalibrationOptions, calibrate
 from robocal.estimation.cross_validation import CVTable, held_out_frames, pooled
 from robocal.estimation.model_criteria import approximate_loo, linearise, norms
@@ -27,6 +28,15 @@ from robocal.residuals.base import Residual
 
 KINDS = (("length", "mm"), ("angle", "mrad"), ("pixel", "px"))   # the units cv_table reports, in its order
 STATUS = "closed form"                             # a fold's status: predicted from the fit, not refitted
+
+
+class FitFailed(RobocalError):
+    """The fit on all samples did not converge or is ill-conditioned: refitting its folds would take as long and
+    describe a model that cannot be fitted. `result` holds the fit and its refusals."""
+
+    def __init__(self, result):
+        self.result = result
+        super().__init__(f"the fit on all samples is {result.status}")
 
 
 def closed_form_refusal(problem: Problem, folds: list[np.ndarray], options: CalibrationOptions | None = None) -> str:
@@ -44,16 +54,19 @@ def closed_form_refusal(problem: Problem, folds: list[np.ndarray], options: Cali
     return ""
 
 
-def leave_out_table(problem: Problem, folds: list[np.ndarray],
-                    options: CalibrationOptions | None = None) -> tuple[CVTable | None, str]:
+def leave_out_table(problem: Problem, folds: list[np.ndarray], options: CalibrationOptions | None = None,
+                    refuse_failed: bool = False) -> tuple[CVTable | None, str]:
     """(the CV table of the closed-form leave-out of every fold, "") or (None, why refits are needed). Fits
     `problem` in place (when the closed form applies so far); a caller that refits after a refusal must start
-    from the parameters as they were (see workflows.cv)."""
+    from the parameters as they were (see workflows.cv). refuse_failed: a fit on all samples that does not
+    converge or is ill-conditioned raises FitFailed instead of asking for refits."""
     why = closed_form_refusal(problem, folds, options)
     if why:
         return None, why
     result = calibrate(problem, options)
     if result.status != "converged" and result.status != "implausible":
+        if refuse_failed:
+            raise FitFailed(result)
         return None, f"the fit on all samples is {result.status}"
     lin = linearise(problem)
     try:

@@ -17,22 +17,25 @@ def run_cv(config: str | Path, folds: int | None = None, loo: bool = False, grou
            allow_failed: bool = False, refits: bool = False) -> tuple[CVTable, str, list[str]]:
     """(the CV table, how the folds were made, notes) of a config; its data pass the units check first. The
     folds are the closed-form leave-out updates of the fit on all samples where its linearisation allows it
-    (robocal.estimation.leave_out), else (or with `refits`) each fold is refitted."""
+    (robocal.estimation.leave_out), else (or with `refits`) each fold is refitted. A fit on all samples that
+    fails raises FitFailed (robocal.estimation.leave_out) unless allow_failed (then the folds are refitted)."""
     setup = load_config(config)
     notes = check_inputs(setup, allow_failed)
     fold_list, label = make_folds(setup, folds, loo, group)
-    table, how = fold_table(setup.problem, fold_list, setup.options, refits)
+    table, how = fold_table(setup.problem, fold_list, setup.options, refits, allow_failed)
     return table, f"{label}, {how}", notes
 
 
-def fold_table(problem, folds: list[np.ndarray], options, refits: bool = False) -> tuple[CVTable, str]:
+def fold_table(problem, folds: list[np.ndarray], options, refits: bool = False,
+               allow_failed: bool = True) -> tuple[CVTable, str]:
     """(CV table, how its folds were scored): the closed-form leave-out of the fit on all samples, or refits
     when asked for or when the linearised fit does not allow it (the reason in the description). `problem` may
-    end fitted."""
+    end fitted. Without allow_failed, a fit on all samples that does not converge (or is ill-conditioned)
+    raises robocal.estimation.leave_out.FitFailed: its folds would be refitted as long, to the same end."""
     why = "refitted (--refits)"
     if not refits:
         start = problem.params.copy()
-        table, reason = leave_out_table(problem, folds, options)
+        table, reason = leave_out_table(problem, folds, options, refuse_failed=not allow_failed)
         if table is not None:
             return table, "closed-form leave-out of the fit on all samples (no refits)"
         why = f"refitted ({reason})"
