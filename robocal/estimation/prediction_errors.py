@@ -16,6 +16,8 @@ import numpy as np
 
 from robocal.errors import InputError
 from robocal.estimation.problem import Problem
+from robocal.estimation.sessions import corrections, session_arrays
+from robocal.model.batch_kinematics import BatchKinematics, supports_batch
 from robocal.model.kinematics import ModelState
 from robocal.model.parameters import ParameterSet
 from robocal.residuals.base import Residual
@@ -94,7 +96,7 @@ def term_errors(problem: Problem, params: ParameterSet | None = None, residuals=
     params = problem.params if params is None else params
     residuals = problem.residuals if residuals is None else residuals
     ms = ModelState(problem.robot, params, problem.joint_names)
-    states = problem.states(ms)
+    states, batch = None, None
     out = {}
     for res in residuals:
         names = [p.name for p in res.aux_parameters()]
@@ -103,10 +105,29 @@ def term_errors(problem: Problem, params: ParameterSet | None = None, residuals=
             raise InputError(f"the parameters lack the set-up quantities of block '{res.name}': "
                              f"{', '.join(missing)}")
         aux = np.array([params[n].value for n in names])
-        raw = np.array([res.evaluate(k, states, aux).r for k in range(res.n_terms)]).reshape(res.n_terms, res.dim)
+        if res.batched and res.n_terms and supports_batch(ms):
+            # every term at once from the frame's poses, as Problem.evaluate's batched pass computes them
+            batch = batch or BatchKinematics(ms, problem.sample_constants(ms), problem.values, problem.directions)
+            raw = batched_errors(problem, batch, res, aux)
+        else:
+            states = states or problem.states(ms)
+            raw = np.array([res.evaluate(k, states, aux).r for k in range(res.n_terms)]).reshape(res.n_terms,
+                                                                                                  res.dim)
         out[res.name] = BlockErrors(res.name, res.type_name, np.asarray(res.samples).copy(), raw,
                                     tuple(res.row_units), _labels(res))
     return out
+
+def batched_errors(problem: Problem, batch, res, aux) -> np.ndarray:
+    """(n_terms, dim) prediction - measurement of a batched residual, its frame's poses from `batch` (in each
+    sample's session frame when sessions are re-registered, at the problem's own corrections, as
+    Problem.states places them)."""
+    fa = batch.frame(res.frame, res.samples, jacobian=False)
+    R, p = fa.R, fa.p
+    if problem.sessions is not None and problem.sessions.corrected:
+        R, p = session_arrays(R, p, corrections(problem.sessions, problem.params),
+                              problem.sessions.of_sample[res.samples])
+    return np.asarray(res.evaluate_batch(slice(0, res.n_terms), R, p, aux).r).reshape(res.n_terms, res.dim)
+
 
 def subset_residual(res, keep_samples):
     """A copy of a residual with only the terms whose samples are all in `keep_samples`."""
