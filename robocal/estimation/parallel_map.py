@@ -28,7 +28,7 @@ from robocal.errors import InputError
 #: times a finished task's lost result is awaited again (its worker died before the result was fetched)
 MAX_RESULT_WAITS = 3
 #: Dask's cost per task: CPU of every process (the client and scheduler, the worker's event loop, serialisation)
-#: per task on a 2-worker LocalCluster of this machine, 5.4-7.4 ms measured by benchmarks/fleet.py and
+#: per task on a 2-worker LocalCluster of this machine, 4.0-7.4 ms measured by benchmarks/fleet.py and
 #: fleet_beside_tasks.py (the CPU of 200 spinning 35 ms items sent one per task against 30 per task; docs/fleet.md,
 #: "Batches"), what `batch_size` weighs items against. CPU, not wall time: on a machine whose cores the workers fill, it is taken from the workers.
 TASK_OVERHEAD_S = 0.006
