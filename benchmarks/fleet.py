@@ -1,21 +1,32 @@
 """Benchmark: a fleet of 200 simulated UR5 units (30 tracker poses each) calibrated on Dask, against the same
-units split over plain processes (multiprocessing, no Dask), in the same run.
+units split over plain processes (multiprocessing, no Dask), and against the Dask settings of a baseline commit
+(default: main), all in the same run.
 
     OMP_NUM_THREADS=1 python benchmarks/fleet.py [--units 200] [--samples 30] [--repeats 5] [--workers 2]
+                                                 [--baseline main]
 
-Two comparisons, each like for like:
-- started: the Dask cluster and the process pool are started and warmed up (robocal imported in every
-  worker) before the clock; `fleet run` on the running cluster (`--scheduler`), with batches of units per task
-  (robocal.estimation.parallel_map.batch_size) and, as it was before, one unit per task;
+Like for like:
+- started: the process pool, and for each Dask way a LocalCluster with that way's settings, are started and
+  warmed up (robocal imported, one real unit run in every worker) before the clock; `fleet run --scheduler`
+  on the running cluster. The plain processes get their units in one message each and return rows; `fleet
+  run` also writes the fleet table (about 10 ms a write, once a second).
 - from cold: the clock includes starting the pool or the LocalCluster (`fleet run --workers N`).
-Each repeat runs every way once, in turn (the order rotates between repeats), on a fresh output folder;
-the table gives the median of the repeats. The per-task overhead that batch_size weighs is measured at the
-end: 400 empty tasks, one at a time per task, on the started cluster. Paste the tables into docs/fleet.md.
+The baseline's settings (LOCAL_CONFIG, TASK_OVERHEAD_S, OVERHEAD_SHARE) are read from its
+robocal/estimation/parallel_map.py (git show, ast) and set in this tree's module for its ways.
+Each repeat runs every way once, in turn (the order rotates between repeats), on a fresh output folder; the
+table gives medians of the repeats, and each way's ratio to the plain processes is the median of the per-repeat
+ratios (slow drifts of the machine's load cancel). CPU s counts every process of the way (workers, nannies,
+scheduler, client, pool); "client CPU" this process's share (client, scheduler and nannies live here).
+At the end, Dask's per-task cost as TASK_OVERHEAD_S counts it: the CPU of all processes for 200 spinning
+35 ms items sent one per task against 30 per task, on a started cluster of this tree's settings.
 """
 import argparse
+import ast
+import contextlib
 import os
 import resource
 import statistics
+import subprocess
 import tempfile
 import time
 from multiprocessing import get_context
@@ -27,12 +38,23 @@ import psutil  # noqa: E402  (a dependency of dask.distributed)
 import yaml  # noqa: E402
 
 from robocal.estimation import parallel_map  # noqa: E402
-from robocal.estimation.parallel_map import WORKER_ENV, batch_size, dask_client  # noqa: E402
+from robocal.estimation.parallel_map import WORKER_ENV, batch_size, completed, dask_client  # noqa: E402
 from robocal.workflows.fleet.manifest import load_fleet  # noqa: E402
 from robocal.workflows.fleet.runner import run_fleet  # noqa: E402
 from robocal.workflows.fleet.synthetic import simulated_fleet  # noqa: E402
 from robocal.workflows.fleet.table import read_table  # noqa: E402
 from robocal.workflows.fleet.unit import calibrate_unit  # noqa: E402
+
+SETTINGS = ("LOCAL_CONFIG", "TASK_OVERHEAD_S", "OVERHEAD_SHARE")
+
+
+def settings_at(commit: str) -> dict:
+    """The SETTINGS of robocal/estimation/parallel_map.py at `commit` (literal assignments, read with ast)."""
+    source = subprocess.run(["git", "-C", os.path.dirname(os.path.abspath(__file__)), "show",
+                             f"{commit}:robocal/estimation/parallel_map.py"], check=True, capture_output=True,
+                            text=True).stdout
+    return {node.targets[0].id: ast.literal_eval(node.value) for node in ast.parse(source).body
+            if isinstance(node, ast.Assign) and getattr(node.targets[0], "id", None) in SETTINGS}
 
 
 def fleet_copy(fleet_yaml: Path, out: str) -> Path:
@@ -48,31 +70,75 @@ def calibrate_all(jobs) -> list[dict]:
     return [calibrate_unit(job) for job in jobs]
 
 
-def nothing(x):
-    return x
+def spin(_, seconds=0.035):
+    """An item of `seconds` of CPU in its thread."""
+    start = time.thread_time()
+    while time.thread_time() - start < seconds:
+        pass
+    return time.thread_time() - start
 
 
-def cpu_seconds() -> float:
+def cpu_seconds(me=None) -> float:
     """CPU time (user + system) of this process and all its children, live or ended: a way's difference of
-    it is the CPU that all its processes used (workers, nannies, scheduler, client, pool), whatever the load
-    of other jobs on the machine did to its wall time."""
-    me = psutil.Process()
+    it is the CPU that all its processes used, whatever the load of other jobs on the machine did to its wall."""
+    me = me or psutil.Process()
     t = me.cpu_times()
     total = t.user + t.system
     ended = resource.getrusage(resource.RUSAGE_CHILDREN)
     total += ended.ru_utime + ended.ru_stime
     for child in me.children(recursive=True):
-        try:
+        with contextlib.suppress(psutil.NoSuchProcess):
             c = child.cpu_times()
             total += c.user + c.system
-        except psutil.NoSuchProcess:
-            pass
     return total
+
+
+def own_cpu() -> float:
+    t = psutil.Process().cpu_times()
+    return t.user + t.system
+
+
+@contextlib.contextmanager
+def settings(values: dict):
+    """parallel_map's module settings set to `values` for the block."""
+    old = {k: getattr(parallel_map, k) for k in SETTINGS}
+    for k, v in values.items():
+        setattr(parallel_map, k, v)
+    try:
+        yield
+    finally:
+        for k, v in old.items():
+            setattr(parallel_map, k, v)
+
+
+@contextlib.contextmanager
+def started_cluster(values: dict, workers: int, jobs):
+    """A LocalCluster with these settings, every worker warmed up with one real unit."""
+    with settings(values), dask_client(workers=workers) as client:
+        client.gather([client.submit(calibrate_all, jobs[k:k + 1], workers=[w], pure=False)
+                       for k, w in enumerate(sorted(client.scheduler_info()["workers"]))])
+        yield client
 
 
 def pool_run(pool, jobs, workers: int) -> list[dict]:
     parts = [jobs[k::workers] for k in range(workers)]
     return [r for part in pool.map(calibrate_all, parts) for r in part]
+
+
+def per_task_cpu(client) -> tuple[float, float]:
+    """(CPU per task, CPU beside the items per 200 items at 30 a task), all processes, spinning 35 ms items."""
+    spent = {}
+    for b in (1, 30):
+        with settings({}):
+            real = parallel_map.batch_size
+            parallel_map.batch_size = lambda *a, _b=b, **k: _b
+            try:
+                c0 = cpu_seconds()
+                items = [r for _, r, _ in completed(client, spin, list(range(200)))]
+                spent[b] = cpu_seconds() - c0 - sum(items)
+            finally:
+                parallel_map.batch_size = real
+    return (spent[1] - spent[30]) / (200 - 7), spent[30]
 
 
 def main():
@@ -81,8 +147,13 @@ def main():
     ap.add_argument("--samples", type=int, default=30)
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--baseline", default="main", help="the commit whose Dask settings are the baseline")
+    ap.add_argument("--started-only", action="store_true", help="leave out the ways from cold (more repeats in the "
+                    "same time: the started ways are those the machine's load disturbs least)")
     args = ap.parse_args()
     W = args.workers
+    base = settings_at(args.baseline)
+    mine = {k: getattr(parallel_map, k) for k in SETTINGS}
     load = os.getloadavg()
     ctx = get_context("spawn")
     times: dict[str, list] = {}
@@ -90,72 +161,70 @@ def main():
         t0 = time.perf_counter()
         fleet = simulated_fleet(tmp, args.units, samples=args.samples, seed=7)
         print(f"simulated {args.units} units of {args.samples} poses in {time.perf_counter() - t0:.1f} s "
-              f"(os.cpu_count() = {os.cpu_count()})\n")
-        spec = load_fleet(fleet.fleet_yaml)
+              f"(os.cpu_count() = {os.cpu_count()}); baseline: {args.baseline}'s settings {base}\n")
+        jobs = load_fleet(fleet.fleet_yaml).jobs
         os.environ.update(WORKER_ENV)          # the pool's processes as the cluster's workers
-        with ctx.Pool(W) as pool, dask_client(workers=W) as client:
-            # imports and first calls (the example robot's URDF, caches), before any clock, in both
-            pool.map(calibrate_all, [spec.jobs[k:k + 1] for k in range(W)])
-            client.gather([client.submit(calibrate_all, spec.jobs[k:k + 1], workers=[w], pure=False)
-                           for k, w in enumerate(sorted(client.scheduler_info()["workers"]))])
-            address = client.scheduler.address
+        with ctx.Pool(W) as pool:
+            pool.map(calibrate_all, [jobs[k:k + 1] for k in range(W)])   # imports and first calls, before any clock
 
-            def dask_started(rep, batched=True):
-                overhead = parallel_map.TASK_OVERHEAD_S
-                parallel_map.TASK_OVERHEAD_S = overhead if batched else 0.0      # 0: one unit per task
-                try:
-                    run = run_fleet(fleet_copy(fleet.fleet_yaml, f"d{int(batched)}_{rep}"), scheduler=address)
-                finally:
-                    parallel_map.TASK_OVERHEAD_S = overhead
-                return read_table(run.table_path)
+            def dask_cold(values, tag):
+                def way(rep):
+                    with settings(values):
+                        return read_table(run_fleet(fleet_copy(fleet.fleet_yaml, f"{tag}{rep}"), workers=W).table_path)
+                return way
 
             def pool_cold(rep):
                 with ctx.Pool(W) as cold:
                     return pool_run(cold, load_fleet(fleet_copy(fleet.fleet_yaml, f"pc{rep}")).jobs, W)
 
             ways = {
-                "one by one, this process": lambda rep: calibrate_all(
-                    load_fleet(fleet_copy(fleet.fleet_yaml, f"s{rep}")).jobs),
                 f"{W} plain processes (started)": lambda rep: pool_run(
                     pool, load_fleet(fleet_copy(fleet.fleet_yaml, f"p{rep}")).jobs, W),
-                f"fleet run, {W} workers, batched (started)": lambda rep: dask_started(rep, True),
-                f"fleet run, {W} workers, 1 unit a task (started)": lambda rep: dask_started(rep, False),
+                f"fleet run, {W} workers, {args.baseline}'s settings (started)": ("started", base, "b"),
+                f"fleet run, {W} workers, this tree (started)": ("started", mine, "m"),
                 f"{W} plain processes (from cold)": pool_cold,
-                f"fleet run --workers {W} (from cold)": lambda rep: read_table(run_fleet(
-                    fleet_copy(fleet.fleet_yaml, f"c{rep}"), workers=W).table_path),
+                f"fleet run --workers {W}, {args.baseline}'s settings (from cold)": dask_cold(base, "cb"),
+                f"fleet run --workers {W}, this tree (from cold)": dask_cold(mine, "cm"),
             }
-            names = list(ways)
+            names = [n for n in ways if not (args.started_only and "cold" in n)]
             for rep in range(args.repeats):
                 for name in names[rep % len(names):] + names[:rep % len(names)]:
-                    t0, c0 = time.perf_counter(), cpu_seconds()
-                    rows = ways[name](rep)
-                    wall, cpu = time.perf_counter() - t0, cpu_seconds() - c0
+                    way = ways[name]
+                    if isinstance(way, tuple):          # a started cluster: started and warmed before the clock
+                        _, values, tag = way
+                        with started_cluster(values, W, jobs) as client, settings(values):
+                            t0, c0, o0 = time.perf_counter(), cpu_seconds(), own_cpu()
+                            rows = read_table(run_fleet(fleet_copy(fleet.fleet_yaml, f"{tag}{rep}"),
+                                                        scheduler=client.scheduler.address).table_path)
+                            wall, cpu, own = time.perf_counter() - t0, cpu_seconds() - c0, own_cpu() - o0
+                    else:
+                        t0, c0, o0 = time.perf_counter(), cpu_seconds(), own_cpu()
+                        rows = way(rep)
+                        wall, cpu, own = time.perf_counter() - t0, cpu_seconds() - c0, own_cpu() - o0
                     times.setdefault(name, []).append((wall, sum(r["status"] == "converged" for r in rows),
-                                                       statistics.mean(r["elapsed_s"] for r in rows), cpu))
-            # Dask's own cost per task: empty tasks, one at a time, on the same running cluster
-            n_empty = 400
-            t0 = time.perf_counter()
-            client.gather([client.submit(nothing, k, pure=False) for k in range(n_empty)])
-            overhead = (time.perf_counter() - t0) * W / n_empty
-    print(f"{'how':<48}{'converged':>10}{'wall s':>8}{'fit ms':>8}{'CPU s':>8}{'vs plain: wall':>16}{'CPU':>6}")
-    med = {k: (statistics.median(w for w, _, _, _ in v), v[0][1], statistics.median(f for _, _, f, _ in v),
-               statistics.median(c for _, _, _, c in v)) for k, v in times.items()}
+                                                       statistics.mean(r["elapsed_s"] for r in rows), cpu, own))
+        with started_cluster(mine, W, jobs) as client:
+            task_cpu, beside = per_task_cpu(client)
+    print(f"{'how':<52}{'converged':>10}{'wall s':>8}{'fit ms':>8}{'CPU s':>7}{'client CPU':>11}"
+          f"{'vs plain: wall':>16}{'CPU':>6}{'wall, each repeat':>20}")
+    med = {k: [statistics.median(x[i] for x in v) for i in range(5)] for k, v in times.items()}
     for name in names:
-        wall, ok, fit, cpu = med[name]
+        wall, _, fit, cpu, own = med[name]
+        ok = times[name][0][1]
         ref = times[f"{W} plain processes ({'from cold' if 'cold' in name else 'started'})"]
-        # the median over repeats of (plain / this way) within each repeat: slow drifts of the machine's load
-        # cancel in each ratio
-        r_wall = statistics.median(p[0] / t[0] for p, t in zip(ref, times[name]))
+        each = sorted(p[0] / t[0] for p, t in zip(ref, times[name]))
+        r_wall = statistics.median(each)
         r_cpu = statistics.median(p[3] / t[3] for p, t in zip(ref, times[name]))
-        print(f"{name:<48}{ok:>10}{wall:>8.2f}{1e3 * fit:>8.1f}{cpu:>8.2f}{100 * r_wall:>15.0f}%{100 * r_cpu:>5.0f}%")
-    unit = med["one by one, this process"][2]
+        print(f"{name:<52}{ok:>10}{wall:>8.2f}{1e3 * fit:>8.1f}{cpu:>7.2f}{own:>11.2f}{100 * r_wall:>15.0f}%"
+              f"{100 * r_cpu:>5.0f}%{100 * each[0]:>12.0f}-{100 * each[-1]:.0f}%")
+    unit = med[f"{W} plain processes (started)"][2]
     print(f"\n{args.units} units; medians of {args.repeats} runs of each way (ways in turn, order rotated between "
-          f"repeats); fit ms: one unit's\ncalibrate_unit where it ran; vs plain: median over the repeats of the plain processes' wall (CPU) time "
-          f"over\nthis way's in the same repeat, like for like (started or from cold); CPU s: all processes of the way (workers, "
-          f"nannies, scheduler, client, pool)\nDask's cost per task (400 empty tasks on the started cluster): "
-          f"{1e3 * overhead:.1f} ms per task per worker;\nbatch_size for {1e3 * unit:.0f} ms units with that "
-          f"overhead: {batch_size(unit, args.units, W, overhead)} (with the constant TASK_OVERHEAD_S = "
-          f"{1e3 * parallel_map.TASK_OVERHEAD_S:.0f} ms: {batch_size(unit, args.units, W)})\n"
+          f"repeats); fit ms: one unit's calibrate_unit where it ran;\nvs plain: median over the repeats of the plain "
+          f"processes' wall (CPU) time over this way's in the same repeat, like for like (started or from cold)\n"
+          f"Dask's per-task cost (CPU of all processes, 200 spinning 35 ms items, 1 vs 30 a task, this tree's "
+          f"settings): {1e3 * task_cpu:.1f} ms a task;\nCPU beside the items at 30 a task: {beside:.2f} s; "
+          f"batch_size for {1e3 * unit:.0f} ms units: this tree {batch_size(unit, args.units, W)}, "
+          f"{args.baseline} {batch_size(unit, args.units, W, base['TASK_OVERHEAD_S'], base['OVERHEAD_SHARE'])}\n"
           f"load average (1 min) before / after: {load[0]:.1f} / {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
 
 

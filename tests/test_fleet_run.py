@@ -145,6 +145,30 @@ def test_items_travel_in_batches_and_come_back_once_each(cluster):
     assert map_tasks(sleepy_square, range(10), scheduler=cl.scheduler_address) == [i * i for i in range(10)]
 
 
+def noisy_mean(rng):
+    return float(rng.normal(size=50).mean())
+
+
+@pytest.mark.parametrize("batch", [1, 4, 13])
+def test_results_do_not_depend_on_the_batch_size(cluster, monkeypatch, batch):
+    """Seeded repetitions on the cluster, 1, 4 or 13 to a task (tasks finish in any order on 2 workers): the
+    serial run's results, bit for bit, in input order."""
+    from robocal.estimation import parallel_map
+    monkeypatch.setattr(parallel_map, "batch_size", lambda *args, **kwargs: batch)
+    serial = parallel_map.monte_carlo(noisy_mean, 30, seed=5)
+    assert parallel_map.monte_carlo(noisy_mean, 30, seed=5, scheduler=cluster[0].scheduler_address) == serial
+    assert len(set(serial)) == 30       # each repetition its own stream
+
+
+def test_robocal_local_cluster_settings_reach_the_workers():
+    """LOCAL_CONFIG (less periodic work beside the tasks) holds in the workers, not only in the client."""
+    import dask.config
+    from robocal.estimation.parallel_map import LOCAL_CONFIG, dask_client
+    with dask_client(workers=1) as client:
+        seen = client.run(lambda: {k: dask.config.get(k) for k in LOCAL_CONFIG})
+    assert list(seen.values()) == [LOCAL_CONFIG]
+
+
 def test_plan_curve_on_the_cluster_equals_the_serial_run(cluster, tmp_path):
     from robocal.workflows.plan import plan_from_config, prediction_dict
 

@@ -166,13 +166,18 @@ def test_fleet_report_command(tmp_path, capsys):
     assert "none.parquet: fleet table not found" in capsys.readouterr().err
 
 
-def test_batch_size_rule():
-    """Units per Dask task: enough that the per-task cost is at most 5 % of a task, capped by 1 s of work and
+def test_batch_size_rule(monkeypatch):
+    """Units per Dask task: enough that the per-task cost is at most 2 % of a task, capped by 1 s of work and
     by two tasks per worker of what is left; one while the unit time is unknown."""
+    from robocal.estimation import parallel_map
     from robocal.estimation.parallel_map import batch_size
     assert batch_size(None, 200, 2) == 1
-    assert batch_size(0.05, 200, 2, overhead_seconds=0.010) == 4            # ceil(0.010 * 0.95 / (0.05 * 0.05))
-    assert batch_size(0.005, 2000, 2, overhead_seconds=0.010) == 38         # ceil(38.0): 190 ms tasks
+    assert batch_size(0.05, 200, 2, overhead_seconds=0.010) == 10           # ceil(0.010 * 0.98 / (0.02 * 0.05))
+    assert batch_size(0.005, 2000, 2, overhead_seconds=0.010) == 98         # ceil(97.99..): 490 ms tasks
     assert batch_size(0.002, 10_000, 2, overhead_seconds=0.1) == 500        # capped at 1 s of work
     assert batch_size(0.05, 12, 2, overhead_seconds=0.010) == 3             # the last 12 units: 12 // 4
     assert batch_size(1.0, 200, 2, overhead_seconds=0.010) == 1             # long units: one a task
+    assert batch_size(0.03, 200, 2) == 10          # the benchmark's 30 ms units with the 6 ms measured per task
+    assert batch_size(0.05, 200, 2, overhead_seconds=0.010, share=0.05) == 4   # ceil(0.010 * 0.95 / (0.05 * 0.05))
+    monkeypatch.setattr(parallel_map, "TASK_OVERHEAD_S", 0.0)      # the module's settings are read when called
+    assert batch_size(0.03, 200, 2) == 1

@@ -27,23 +27,30 @@ from robocal.errors import InputError
 
 #: times a finished task's lost result is awaited again (its worker died before the result was fetched)
 MAX_RESULT_WAITS = 3
-#: Dask's cost per task (scheduler, serialisation, the worker's bookkeeping) on a LocalCluster of this kind of
-#: machine: 3.2-4.6 ms a task per worker measured by benchmarks/fleet.py (empty tasks; docs/fleet.md, "Batches"),
-#: what `batch_size` weighs items against
-TASK_OVERHEAD_S = 0.004
-#: the share of a task that the per-task cost may take
-OVERHEAD_SHARE = 0.05
+#: Dask's cost per task: CPU of every process (the client and scheduler, the worker's event loop, serialisation)
+#: per task on a 2-worker LocalCluster of this machine, 4.0-7.4 ms measured by benchmarks/fleet.py and
+#: fleet_beside_tasks.py (the CPU of 200 spinning 35 ms items sent one per task against 30 per task; docs/fleet.md,
+#: "Batches"), what `batch_size` weighs items against. CPU, not wall time: on a machine whose cores the workers fill, it is taken from the workers.
+TASK_OVERHEAD_S = 0.006
+#: the share of a task that the per-task cost may take: 2 % of the 10 % that N workers may lose to N plain
+#: processes (issue 37), the rest left to what does not scale with tasks (the cluster's own periodic work,
+#: the table, the first and last tasks)
+OVERHEAD_SHARE = 0.02
 #: a task lasts at most this long (s) once item times are known (results flow about as often as a table is written)
 MAX_TASK_S = 1.0
 #: tasks in flight per worker (one running, one waiting), and at least this many tasks per worker for what is left
 TASKS_PER_WORKER = 2
-#: Dask settings of the LocalCluster robocal starts. Its workers share the machine's cores with the scheduler and
-#: the nannies, so whatever runs beside the tasks slows them: the statistical profiler samples each task thread
-#: 100 times a second (for the dashboard's profile page), every process wakes 50 times a second to check its
-#: event loop, and work stealing rebalances queues that `completed` keeps at two tasks per worker anyway. Off or
-#: slower, 200 units of 30 ms on 2 workers reach 92-95 % of 2 plain processes instead of 86 % (docs/fleet.md).
-LOCAL_CONFIG = {"distributed.worker.profile.enabled": False, "distributed.admin.tick.interval": "100ms",
-                "distributed.scheduler.work-stealing": False}
+#: Dask settings of the LocalCluster robocal starts. Its workers share the machine's cores with the scheduler, the
+#: client and the nannies, so whatever runs beside the tasks is taken from them. Off or slower: the statistical
+#: profiler (it samples each task thread 100 times a second for the dashboard), work stealing (`completed` keeps
+#: two tasks per worker anyway), the event-loop health check (20 ms -> 1 s), the system monitor (psutil's CPU,
+#: memory, network and disk counters in every process, 500 ms -> 2 s) and the memory monitor (each worker's and
+#: its nanny's RSS, 100 ms -> 1 s; the memory limits still hold, checked once a second). Measured on 2 workers
+#: (benchmarks/fleet_beside_tasks.py, docs/fleet.md): the CPU of everything but the items, 0.52 s -> 0.16 s for 200
+#: items of 35 ms sent 30 a task; an idle cluster 2.7-3.0 % -> 1.0 % of a core.
+LOCAL_CONFIG = {"distributed.worker.profile.enabled": False, "distributed.scheduler.work-stealing": False,
+                "distributed.admin.tick.interval": "1s", "distributed.admin.system-monitor.interval": "2s",
+                "distributed.worker.memory.monitor-interval": "1s"}
 #: set in every LocalCluster worker: one BLAS thread per single-threaded worker process
 WORKER_ENV = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
 
@@ -76,13 +83,17 @@ def dask_client(scheduler: str | None = None, workers: int | None = None):
         yield client
 
 
-def batch_size(unit_seconds: float | None, left: int, workers: int, overhead_seconds: float = TASK_OVERHEAD_S,
-               share: float = OVERHEAD_SHARE, max_task_seconds: float = MAX_TASK_S) -> int:
-    """Items per Dask task: the fewest that keep Dask's per-task cost (overhead_seconds) at most `share` of a
-    task, b >= overhead (1 - share) / (share unit_seconds); at most what lasts max_task_seconds (results reach
-    the caller, and a fleet's rows its table, about as often as the table is written) and at most an even
-    share of what is left over TASKS_PER_WORKER tasks per worker (no worker idles while another finishes a
-    long task at the end). 1 while the item time is not known yet."""
+def batch_size(unit_seconds: float | None, left: int, workers: int, overhead_seconds: float | None = None,
+               share: float | None = None, max_task_seconds: float | None = None) -> int:
+    """Items per Dask task: the fewest that keep Dask's per-task cost (overhead_seconds, default
+    TASK_OVERHEAD_S) at most `share` (OVERHEAD_SHARE) of a task, b >= overhead (1 - share) / (share unit_seconds);
+    at most what lasts max_task_seconds (MAX_TASK_S: results reach the caller, and a fleet's rows its table,
+    about as often as the table is written) and at most an even share of what is left over TASKS_PER_WORKER
+    tasks per worker (no worker idles while another finishes a long task at the end). 1 while the item time
+    is not known yet. The defaults are read when called (a benchmark may set the module's constants)."""
+    overhead_seconds = TASK_OVERHEAD_S if overhead_seconds is None else overhead_seconds
+    share = OVERHEAD_SHARE if share is None else share
+    max_task_seconds = MAX_TASK_S if max_task_seconds is None else max_task_seconds
     if not unit_seconds or unit_seconds <= 0:
         return 1
     wanted = int(np.ceil(overhead_seconds * (1 - share) / (share * unit_seconds)))
