@@ -223,3 +223,22 @@ def test_a_large_fit_draws_evenly_spaced_samples_numbered_in_the_scene(monkeypat
     assert kept_terms > 0
     assert scene_module.scene_note(problem).startswith(f"scene.json (the 3D check and the report's point plots) "
                                                        f"draws 9 of the {n} samples")
+
+
+def test_session_poses_drawn_in_each_session_frame(monkeypatch):
+    """Two sessions with the tracker re-registered: the batched scene poses equal each sample's state (its pose in
+    its own session's measurement frame) before and after, as the per-sample path draws them."""
+    from pathlib import Path
+    from robocal.estimation.calibrate import calibrate
+    from robocal.viz import scene as scene_module
+    from robocal.workflows.setup import load_config
+    setup = load_config(Path(__file__).parents[1] / "examples" / "tiago_mocap" / "select_hand_sessions.yaml")
+    problem = setup.problem
+    before = problem.params.copy()
+    calibrate(problem, setup.options)
+    assert max(abs(problem.params[n].value) for n in problem.params.names if "@" in n) > 1e-3
+    batched = scene_module.scene_data(problem, None, before, ident={})
+    monkeypatch.setattr(scene_module, "supports_batch", lambda ms: False)
+    per_sample = scene_module.scene_data(problem, None, before, ident={})
+    for state in ("before", "after"):
+        np.testing.assert_allclose(batched["poses"][state], per_sample["poses"][state], atol=1e-12)

@@ -32,6 +32,7 @@ from robocal.model.batch_kinematics import BatchKinematics, supports_batch
 from robocal.model.kinematics import ModelState
 from robocal.model.lie_arrays import quaternions
 from robocal.estimation.prediction_errors import subset_residual
+from robocal.estimation.sessions import corrections, session_arrays
 from robocal.residuals.base import tilted_direction
 from robocal.viz.camera_scene import camera_entry, camera_points
 from robocal.viz.skeleton_layout import skeleton, skeleton_from_links
@@ -244,7 +245,7 @@ def scene_data(problem, result, params_before, ident: dict | None = None) -> dic
     position = np.full(n, -1)
     position[drawn] = np.arange(len(drawn))
     residuals = problem.residuals if len(drawn) == n else [subset_residual(r, drawn) for r in problem.residuals]
-    poses = {s: frame_poses(problem, models[s], states[s], frame_names, drawn) for s in STATES}
+    poses = {s: frame_poses(problem, models[s], states[s], frame_names, drawn, param_sets[s]) for s in STATES}
     out = {
         "format": FORMAT, "version": VERSION, "units": "SI (m, rad)",
         "robot": {"name": robot.name, "urdf_path": str(robot.urdf_path) if robot.urdf_path else None,
@@ -264,18 +265,22 @@ def scene_data(problem, result, params_before, ident: dict | None = None) -> dic
 
 
 def frame_poses(problem, ms: ModelState, states, frame_names: list[str],
-                samples: np.ndarray | None = None) -> list:
+                samples: np.ndarray | None = None, params=None) -> list:
     """[sample][frame] -> [x, y, z, qx, qy, qz, qw] world poses at `samples` (default all, increasing): all at
-    once for a serial robot (robocal.model.batch_kinematics), else sample by sample (closed chains assemble
-    their loops there)."""
+    once for a serial robot (robocal.model.batch_kinematics; with sessions, each sample in its session's frame
+    at the corrections of `params`, default the problem's, as `states` holds them), else sample by sample
+    (closed chains assemble their loops there)."""
     samples = np.arange(len(problem.values)) if samples is None else np.asarray(samples, dtype=int)
-    if not supports_batch(ms) or getattr(problem.sessions, "corrected", False):
+    if not supports_batch(ms):
         return [[_pose7(states[int(i)].pose(f)) for f in frame_names] for i in samples]
     batch = BatchKinematics(ms, problem.sample_constants(ms), problem.values, problem.directions)
+    sessions = problem.sessions if getattr(problem.sessions, "corrected", False) else None
+    T = corrections(sessions, params or problem.params) if sessions is not None else None
     out = np.empty((len(samples), len(frame_names), 7))
     for k, f in enumerate(frame_names):
         fa = batch.frame(f, samples, jacobian=False)
-        out[:, k, :3], out[:, k, 3:] = fa.p, quaternions(fa.R)
+        R, p = (fa.R, fa.p) if T is None else session_arrays(fa.R, fa.p, T, sessions.of_sample[samples])
+        out[:, k, :3], out[:, k, 3:] = p, quaternions(R)
     return out.tolist()
 
 
