@@ -1,5 +1,6 @@
-"""The scene's camera points: one whole-array undistortion of every detected pixel (robocal.viz.camera_scene.undistorted)
-gives what undistorting each pixel alone gave, so the scene file's content is unchanged by the speed-up."""
+"""The scene's camera block: one whole-array undistortion of every detected pixel (robocal.viz.camera_scene.undistorted)
+and one batched evaluation of the residual rows give what undistorting and evaluating each term alone gave, so the
+scene file's content is unchanged by the speed-up."""
 import numpy as np
 import pytest
 
@@ -34,13 +35,14 @@ def test_whole_array_undistortion_equals_the_per_pixel_one(problem):
 
 
 def test_scene_equals_the_per_point_path(problem, monkeypatch):
-    """The whole scene (points, residuals, camera entry) with the whole-array undistortion against the same scene
-    with every pixel undistorted alone (the path before the speed-up), both states, to 1e-12."""
+    """The whole scene (points, residual rows, camera entry) with the whole-array undistortion and batched rows
+    against the same scene with every term undistorted and evaluated alone (the path before the speed-up: no rays
+    turns both off), both states, to 1e-12."""
     prob, res = problem
     before = prob.params.copy()
     ident = {"singular_values": [1.0], "rank": 1, "requested": 1, "rtol": 1e-10, "condition": 1.0}
     fast = scene_data(prob, None, before, ident=ident)
-    monkeypatch.setattr(scene_module, "undistorted", lambda res, aux: None)     # rays=None: per pixel
+    monkeypatch.setattr(scene_module, "undistorted", lambda res, aux: None)     # rays=None: per term
     slow = scene_data(prob, None, before, ident=ident)
     b, ref = fast["blocks"][0], slow["blocks"][0]
     assert b["type"] == "camera" and len(b["measured_after"]) == res.n_terms

@@ -189,20 +189,27 @@ def _block(res, states, param_sets, position: np.ndarray) -> dict:
         art = _artefact(res, aux) if hasattr(res, "frame") else None
         meas, pred, rows, beams = [], [], [], []
         rays = undistorted(res, aux) if res.type_name == "camera" else None
+        poses = []                 # camera: the rows in one evaluate_batch below (per term: 2 x 1080 calls, 0.1 s)
         for k in range(res.n_terms):
-            rows.append(res.evaluate(k, states[s], aux).r.tolist())
+            if rays is None:
+                rows.append(res.evaluate(k, states[s], aux).r.tolist())
             if res.type_name == "sphere_artefact":
                 m, p, centres = _artefact_hits(res, k, states[s], aux)
                 art["centres"].append(centres)
             elif len(res.term_samples(k)) == 1 and hasattr(res, "frame"):
                 M = states[s][int(res.term_samples(k)[0])].pose(res.frame)
                 m, p = _points(res, k, M, aux, rays)
+                if rays is not None:
+                    poses.append(M)
                 if res.type_name == "laser_line":
                     beams.append(M.act(aux[3:6]).tolist())   # where the beam leaves the tool
             else:
                 continue
             meas.append(m.tolist())
             pred.append(p.tolist())
+        if rays is not None:
+            R, t = np.array([M.rotation for M in poses]), np.array([M.translation for M in poses])
+            rows = res.evaluate_batch(slice(0, res.n_terms), R, t, aux).r.tolist()
         block[f"measured_{s}"] = meas
         block[f"predicted_{s}"] = pred
         block[f"residual_{s}"] = rows
