@@ -20,7 +20,7 @@ MAX_LINES = 400
 # imported inside functions on purpose: optional extras ([viz], [fast], [fleet], [test]) and the pages
 # built on them, so a core install imports without them; and heavy libraries of one CLI command
 OPTIONAL = ("numba", "meshcat", "matplotlib", "dask", "distributed", "pyarrow", "hypothesis", "cv2",
-            "robocal.viz.meshcat_check", "robocal.viz.report", "robocal.viz.camera_plots", "robocal.viz.plots", "robocal.viz.fleet_plots",
+            "robocal.viz.meshcat_check", "robocal.viz.report", "robocal.viz.plots", "robocal.viz.fleet_plots",
             "robocal.workflows.fleet",
             # the dynamics stack (scipy.signal, scipy.stats) only for `robocal identify`: CLI start-up
             "robocal.workflows.identify_outputs", "robocal.workflows.identify", "robocal.workflows.identify_evaluate",

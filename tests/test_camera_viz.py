@@ -12,7 +12,6 @@ from robocal.estimation.camera_block import camera_problem, camera_setup
 from robocal.viz.scene import VERSION, read_scene, scene_bytes
 
 pytest.importorskip("meshcat")
-pytest.importorskip("matplotlib")
 
 
 @pytest.fixture(scope="module", params=["eye_in_hand", "eye_to_hand"])

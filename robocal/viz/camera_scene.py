@@ -31,12 +31,20 @@ def camera_and_target(res, M: pin.SE3, aux) -> tuple[pin.SE3, pin.SE3]:
     return (M, fixed) if res.mount == "eye_in_hand" else (fixed, M)
 
 
-def camera_points(res, k: int, M: pin.SE3, aux) -> tuple[np.ndarray, np.ndarray]:
-    """(measured (1, 3), predicted (1, 3)) world points of term k (module docstring)."""
+def undistorted(res, aux) -> np.ndarray:
+    """Normalised image coordinates (n_terms, 2) of every detected pixel: one whole-array Newton solve (per point
+    it cost ~0.5 ms, 1 s for the camera example's 2 x 2160 terms)."""
+    return undistort(res.camera, np.asarray(aux[:res.n_intrinsics], float), res.measurements)
+
+
+def camera_points(res, k: int, M: pin.SE3, aux, xy=None) -> tuple[np.ndarray, np.ndarray]:
+    """(measured (1, 3), predicted (1, 3)) world points of term k (module docstring); xy: row k of
+    `undistorted(res, aux)`, None to undistort this pixel alone."""
     C, T = camera_and_target(res, M, aux)
     corner = T.act(res.points[k])
     depth = (C.actInv(corner))[2]
-    xy = undistort(res.camera, np.asarray(aux[:res.n_intrinsics], float), res.measurements[k:k + 1])[0]
+    if xy is None:
+        xy = undistort(res.camera, np.asarray(aux[:res.n_intrinsics], float), res.measurements[k:k + 1])[0]
     return C.act(depth * np.array([xy[0], xy[1], 1.0]))[None, :], corner[None, :]
 
 

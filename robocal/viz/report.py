@@ -22,6 +22,7 @@ from robocal.errors import InputError
 from robocal.viz.meshcat_check import SceneView
 from robocal.viz.report_validation import evaluation_section, refusal_section
 from robocal.viz.scene import read_scene, samples_phrase
+from robocal.viz.svg_camera import camera_images, reprojection_panels
 
 log = logging.getLogger(__name__)
 SHOWN = {"m": (1e3, "mm"), "rad": (1e3, "mrad")}
@@ -84,19 +85,17 @@ def report_plots(result: dict, scene: dict | None) -> list[tuple[str, str]]:
 
 
 def camera_figures(b: dict) -> list[tuple[str, str]]:
-    """A camera block's figures: RMS per image before / after (SVG), and detected against reprojected corners
-    (matplotlib panels as an embedded PNG: the [viz] extra, imported only when a camera block is drawn)."""
-    from robocal.viz.camera_plots import camera_images, reprojection_panels   # matplotlib: the [viz] extra
+    """A camera block's figures, both inline SVG: RMS per image before / after, and detected against reprojected
+    corners in the worst images (robocal.viz.svg_camera)."""
     images = camera_images(b)
-    buf = io.BytesIO()
-    _, scale, shown = reprojection_panels(images, b["camera"]["image_size"], buf)
+    panels, scale, shown = reprojection_panels(images, b["camera"]["image_size"], ident=b["name"],
+                                               title=f"{b['name']}: detected vs reprojected corners (px)")
     caption = (f"Block '{b['name']}': detected corners (dots) and the calibrated model's reprojections (crosses) "
                f"in the {shown} image(s) with the largest RMS of {len(images)}; arrows x{scale:g}")
-    png = base64.b64encode(buf.getvalue()).decode("ascii")
     return [(f"Reprojection RMS per image of block '{b['name']}' (camera), px per corner",
              plots.residuals_per_sample([im["rms_before"] for im in images], [im["rms_after"] for im in images],
                                         unit="px", title=f"{b['name']}: RMS per image")),
-            (caption, f'<img alt="{html.escape(caption)}" src="data:image/png;base64,{png}">')]
+            (caption, panels)]
 
 
 # ---- HTML ---------------------------------------------------------------------------------------

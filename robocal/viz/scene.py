@@ -34,7 +34,7 @@ from robocal.model.lie_arrays import quaternions
 from robocal.estimation.prediction_errors import subset_residual
 from robocal.estimation.sessions import corrections, session_arrays
 from robocal.residuals.base import tilted_direction
-from robocal.viz.camera_scene import camera_entry, camera_points
+from robocal.viz.camera_scene import camera_entry, camera_points, undistorted
 from robocal.viz.skeleton_layout import skeleton, skeleton_from_links
 from robocal.residuals.sphere_fit import fit_sphere
 
@@ -100,7 +100,8 @@ def _aux(params, res) -> np.ndarray:
 
 
 # ---- per measurement type: (measured points, predicted points) of a term, world frame --------------
-def _points(res, k, M, aux) -> tuple[np.ndarray, np.ndarray]:
+def _points(res, k, M, aux, rays=None) -> tuple[np.ndarray, np.ndarray]:
+    """rays: a camera block's undistorted pixels (camera_scene.undistorted), computed once per state."""
     t = res.type_name
     if t == "pose":
         return res.measurements[k, None, :3], M.translation[None, :]
@@ -133,7 +134,7 @@ def _points(res, k, M, aux) -> tuple[np.ndarray, np.ndarray]:
         u = M.rotation @ tilted_direction(res.R0, aux[6], aux[7])[0]
         return P[None, :], (o + ((P - o) @ u) * u)[None, :]
     if t == "camera":
-        return camera_points(res, k, M, aux)
+        return camera_points(res, k, M, aux, None if rays is None else rays[k])
     return np.zeros((0, 3)), np.zeros((0, 3))
 
 
@@ -188,20 +189,28 @@ def _block(res, states, param_sets, position: np.ndarray) -> dict:
         aux = _aux(param_sets[s], res)
         art = _artefact(res, aux) if hasattr(res, "frame") else None
         meas, pred, rows, beams = [], [], [], []
+        rays = undistorted(res, aux) if res.type_name == "camera" else None
+        poses = []                 # camera: the rows in one evaluate_batch below (per term: 2 x 1080 calls, 0.1 s)
         for k in range(res.n_terms):
-            rows.append(res.evaluate(k, states[s], aux).r.tolist())
+            if rays is None:
+                rows.append(res.evaluate(k, states[s], aux).r.tolist())
             if res.type_name == "sphere_artefact":
                 m, p, centres = _artefact_hits(res, k, states[s], aux)
                 art["centres"].append(centres)
             elif len(res.term_samples(k)) == 1 and hasattr(res, "frame"):
                 M = states[s][int(res.term_samples(k)[0])].pose(res.frame)
-                m, p = _points(res, k, M, aux)
+                m, p = _points(res, k, M, aux, rays)
+                if rays is not None:
+                    poses.append(M)
                 if res.type_name == "laser_line":
                     beams.append(M.act(aux[3:6]).tolist())   # where the beam leaves the tool
             else:
                 continue
             meas.append(m.tolist())
             pred.append(p.tolist())
+        if rays is not None:
+            R, t = np.array([M.rotation for M in poses]), np.array([M.translation for M in poses])
+            rows = res.evaluate_batch(slice(0, res.n_terms), R, t, aux).r.tolist()
         block[f"measured_{s}"] = meas
         block[f"predicted_{s}"] = pred
         block[f"residual_{s}"] = rows

@@ -100,16 +100,16 @@ class Panel:
                           f'stroke-width="{width}"' + (f' stroke-dasharray="{dash}"' if dash else "") + "/>")
 
     def axes(self, xlabel: str = "", ylabel: str = "", title: str = "", grid: str = "xy", size: float = FONT,
-             xticks=None, yticks=None, ylabels=None) -> None:
+             xticks=None, yticks=None, ylabels=None, xlabels=None) -> None:
         """Frame, ticks with labels, grid lines, axis labels and the title."""
         out = []
         xt = linear_ticks(*self.xlim) if xticks is None else np.asarray(xticks, float)
-        for t in xt:
+        for k, t in enumerate(xt):
             p = num(float(self.px(t)))
             if "x" in grid:
                 out.append(f'<line x1="{p}" x2="{p}" y1="{num(self.y)}" y2="{num(self.y + self.h)}" stroke="#ddd"/>')
             out.append(f'<text x="{p}" y="{num(self.y + self.h + size + 2)}" text-anchor="middle" '
-                       f'font-size="{size - 1}">{label(t)}</text>')
+                       f'font-size="{size - 1}">{html.escape(label(t) if xlabels is None else xlabels[k])}</text>')
         lim = 10.0 ** self.ylim if self.ylog else self.ylim
         yt = (log_ticks(*lim) if self.ylog else linear_ticks(*lim)) if yticks is None else np.asarray(yticks, float)
         for k, t in enumerate(yt):
