@@ -38,8 +38,9 @@ VALIDATION = TIAGO / "data" / "qualisys_2021-11-26_static_postures.csv"
 MOTOR = ("ur5_coupled", "tiago_wrist")
 
 
-def run_once(root: Path, argv: list[str], cwd: Path) -> tuple[float, float]:
-    """(wall s, CPU s) of one command in a fresh process with the tree at `root` first on sys.path."""
+def run_once(root: Path, argv: list[str], cwd: Path, may_fail: bool = False) -> tuple[float, float]:
+    """(wall s, CPU s) of one command in a fresh process with the tree at `root` first on sys.path; with
+    `may_fail` (the baseline tree) a crash gives (nan, nan), printed as such, instead of stopping the run."""
     code = ("import sys; sys.path.insert(0, sys.argv[1]); from robocal.cli.main import main; "
             "sys.argv = ['robocal'] + sys.argv[2:]; sys.exit(main())") if argv is not None else "import pinocchio"
     env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
@@ -50,6 +51,8 @@ def run_once(root: Path, argv: list[str], cwd: Path) -> tuple[float, float]:
                           capture_output=True, text=True)
     wall = time.perf_counter() - t0
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if proc.returncode not in (0, 3) and may_fail:
+        return float("nan"), float("nan")
     if proc.returncode not in (0, 3):       # 3: a fit refused or rejected, still a complete run
         raise RuntimeError(f"{root}: robocal {' '.join(argv or [])} exited {proc.returncode}:\n{proc.stderr[-2000:]}")
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
@@ -163,12 +166,13 @@ def main():
                     out = tmp / f"out_{name}"
                     out.mkdir(exist_ok=True)
                     times.setdefault((cmd, label, name), []).append(
-                        run_once(root, None if argv is None else argv(out), out))
+                        run_once(root, None if argv is None else argv(out), out, may_fail=name == "base"))
         med = {k: (statistics.median(w for w, _ in v), statistics.median(c for _, c in v)) for k, v in times.items()}
         same = same_identification(tmp / "out_base", tmp / "out_new") if "base" in trees else []
     print(f"baseline: robocal at {commit[:7]}; new: this tree; medians of {args.repeats}, baseline and new alternating; "
           f"load average {load:.1f} -> {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
-    print("work = CPU s of the command - CPU s of `python -c \"import pinocchio\"` (same run)\n")
+    print("work = CPU s of the command - CPU s of `python -c \"import pinocchio\"` (same run); nan: the baseline "
+          "crashed on it\n")
     names = list(trees)
     head = f"{'command':<18}{'example':<46}"
     for n in names:
