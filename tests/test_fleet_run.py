@@ -164,9 +164,12 @@ def test_robocal_local_cluster_settings_reach_the_workers():
     """LOCAL_CONFIG (less periodic work beside the tasks) holds in the workers, not only in the client."""
     import dask.config
     from robocal.estimation.parallel_map import LOCAL_CONFIG, dask_client
+    import os
     with dask_client(workers=1) as client:
         seen = client.run(lambda: {k: dask.config.get(k) for k in LOCAL_CONFIG})
+        trim = client.run(lambda: os.environ.get("MALLOC_TRIM_THRESHOLD_"))
     assert list(seen.values()) == [LOCAL_CONFIG]
+    assert list(trim.values()) == [os.environ.get("MALLOC_TRIM_THRESHOLD_")]   # glibc's own, as in the client
 
 
 def test_plan_curve_on_the_cluster_equals_the_serial_run(cluster, tmp_path):

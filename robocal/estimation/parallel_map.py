@@ -50,7 +50,12 @@ TASKS_PER_WORKER = 2
 #: items of 35 ms sent 30 a task; an idle cluster 2.7-3.0 % -> 1.0 % of a core.
 LOCAL_CONFIG = {"distributed.worker.profile.enabled": False, "distributed.scheduler.work-stealing": False,
                 "distributed.admin.tick.interval": "1s", "distributed.admin.system-monitor.interval": "2s",
-                "distributed.worker.memory.monitor-interval": "1s"}
+                "distributed.worker.memory.monitor-interval": "1s",
+                # Dask's default also sets MALLOC_TRIM_THRESHOLD_=65536 in every worker, which fixes glibc's mmap
+                # threshold: each numpy temporary above 128 kB is then mapped and unmapped afresh, and a 30-pose
+                # UR5 unit ran 5-8 % slower in a process with it (benchmarks/fleet_unit_context.py, docs/fleet.md)
+                "distributed.nanny.pre-spawn-environ": {"OMP_NUM_THREADS": 1, "MKL_NUM_THREADS": 1,
+                                                        "OPENBLAS_NUM_THREADS": 1}}
 #: set in every LocalCluster worker: one BLAS thread per single-threaded worker process
 WORKER_ENV = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
 
