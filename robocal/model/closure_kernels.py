@@ -21,6 +21,8 @@ import math
 
 import numpy as np
 
+from robocal.model.kernel_jit import jit_in_place
+
 REVOLUTE, CONTINUOUS, PRISMATIC, FREE, SPHERICAL = 0, 1, 2, 3, 4
 KIND_CODES = {"revolute": REVOLUTE, "continuous": CONTINUOUS, "prismatic": PRISMATIC, "free": FREE,
               "spherical": SPHERICAL}
@@ -300,13 +302,8 @@ _compiled = False
 
 
 def compile_kernels():
-    """jit the kernels in place (callees first: a jitted caller needs them jitted); numba is imported here only.
-    Raises ImportError without numba."""
+    """jit the kernels in place (robocal.model.kernel_jit). Raises ImportError without numba."""
     global _compiled
     if not _compiled:
-        from numba import njit
-        jit = njit(cache=True, error_model="numpy")    # numpy error model: 1/0 gives inf or NaN, as numpy
-        names = globals()
-        for name in KERNELS:
-            names[name] = jit(getattr(names[name], "py_func", names[name]))
+        jit_in_place(globals(), KERNELS)
         _compiled = True

@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from robocal.model.kernel_jit import jit_in_place
+
 
 def frame_solved_columns(R0, p0, W, moving, solver, C_theta, entry_row, entry_col, ccols, J):
     """J[s, :, ccols] = -Ad(M^-1) W[:, moving] solver[moving] C_theta at each sample s, M = (R0, p0) the frame's
@@ -70,12 +72,8 @@ _compiled = False
 
 
 def compile_kernels():
-    """jit the kernels in place; numba is imported here only. Raises ImportError without numba."""
+    """jit the kernels in place (robocal.model.kernel_jit). Raises ImportError without numba."""
     global _compiled
     if not _compiled:
-        from numba import njit
-        jit = njit(cache=True, error_model="numpy")    # numpy error model: 1/0 gives inf or NaN, as numpy
-        names = globals()
-        for name in KERNELS:
-            names[name] = jit(getattr(names[name], "py_func", names[name]))
+        jit_in_place(globals(), KERNELS)
         _compiled = True

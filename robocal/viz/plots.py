@@ -10,6 +10,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from robocal.errors import InputError
+from robocal.viz.svg_torques import torque_series
 
 BEFORE, AFTER = "#ff8c00", "#1f77b4"
 DPI = 100
@@ -155,16 +156,7 @@ def joint_torques(time, measured, predicted, path, joint_names=None, unit="N m",
     """Measured and predicted torque of each joint over time: (n,) time, (n, nj) torques, one panel per joint.
     predicted: one (n, nj) array, or {label: (n, nj) array} for several models; unit: one for every joint or
     a list (N for a prismatic joint)."""
-    time = np.asarray(time, float).ravel()
-    measured = np.asarray(measured, float)
-    models = predicted if isinstance(predicted, dict) else {"predicted": predicted}
-    models = {k: np.asarray(v, float) for k, v in models.items()}
-    if measured.ndim == 1:
-        measured, models = measured[:, None], {k: v.reshape(-1, 1) for k, v in models.items()}
-    for label, pred in models.items():
-        if measured.shape != pred.shape or len(time) != len(measured):
-            raise InputError(f"time {time.shape}, measured {measured.shape} and {label} {pred.shape} disagree",
-                             field="measured/predicted")
+    time, measured, models = torque_series(time, measured, predicted)
     nj = measured.shape[1]
     names = list(joint_names) if joint_names is not None else [f"joint {j + 1}" for j in range(nj)]
     units = [unit] * nj if isinstance(unit, str) else list(unit)

@@ -41,11 +41,9 @@ def polyline(p: Panel, x: np.ndarray, y: np.ndarray, colour: str, dash: str) -> 
                    + (f' stroke-dasharray="{dash}"' if dash else "") + "/>")
 
 
-def joint_torques(time, measured, predicted, joint_names=None, unit="N m",
-                  title: str = "Joint torques: measured vs predicted") -> str:
-    """One `<svg>`: a panel per joint, measured and predicted torque over time with each model's rms error.
-    time (n,), measured (n, nj) or (n,), predicted one such array or {label: array} for several models; unit:
-    one for every joint or a list (N for a prismatic joint)."""
+def torque_series(time, measured, predicted) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
+    """(time (n,), measured (n, nj), {label: predicted (n, nj)}) of a torque figure's arguments (one joint's
+    (n,) arrays become (n, 1)); InputError when their shapes disagree. Shared with robocal.viz.plots."""
     time = np.asarray(time, float).ravel()
     measured = np.asarray(measured, float)
     models = predicted if isinstance(predicted, dict) else {"predicted": predicted}
@@ -56,6 +54,15 @@ def joint_torques(time, measured, predicted, joint_names=None, unit="N m",
         if measured.shape != pred.shape or len(time) != len(measured):
             raise InputError(f"time {time.shape}, measured {measured.shape} and {name} {pred.shape} disagree",
                              field="measured/predicted")
+    return time, measured, models
+
+
+def joint_torques(time, measured, predicted, joint_names=None, unit="N m",
+                  title: str = "Joint torques: measured vs predicted") -> str:
+    """One `<svg>`: a panel per joint, measured and predicted torque over time with each model's rms error.
+    time (n,), measured (n, nj) or (n,), predicted one such array or {label: array} for several models; unit:
+    one for every joint or a list (N for a prismatic joint)."""
+    time, measured, models = torque_series(time, measured, predicted)
     if len(models) > len(STYLES):
         raise InputError(f"{len(models)} models: at most {len(STYLES)} in one figure", field="predicted")
     nj = measured.shape[1]
