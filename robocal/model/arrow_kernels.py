@@ -199,12 +199,8 @@ def arrow_inverse(Cs, rows, own, shared, inv, bound):
 
 
 KERNELS = ("solve_small", "arrow_parts", "arrow_newton", "arrow_damped", "arrow_inverse")
-_compiled = False
 
 
 def compile_kernels():
     """jit the kernels in place (robocal.model.kernel_jit). Raises ImportError without numba."""
-    global _compiled
-    if not _compiled:
-        jit_in_place(globals(), KERNELS)
-        _compiled = True
+    jit_in_place(globals(), KERNELS)

@@ -17,12 +17,12 @@ numbers serially and on a cluster's fresh workers.
 from __future__ import annotations
 
 import copy
-import os
 
 import numpy as np
 
 from robocal.model import arrow_kernels, closure_kernels, sensitivity_kernels
 from robocal.model.closure_groups import group_state, parameter_rows
+from robocal.model.kernel_jit import numba_chosen
 from robocal.model.tree_arrays import SMALL_ANGLE
 
 
@@ -32,22 +32,12 @@ NUMBA_MIN_SAMPLES = 1000
 
 
 def numba_wanted(use_numba: bool | None, n: int | None = None) -> bool:
-    """use_numba, or for None: ROBOCAL_NO_NUMBA is unset (or 0), the pass has at least NUMBA_MIN_SAMPLES samples n
-    and numba imports (the kernels are jitted here, on the first such pass: seconds the first time, then loaded
-    from numba's cache)."""
-    if use_numba is None:
-        if os.environ.get("ROBOCAL_NO_NUMBA", "0").strip() not in ("", "0"):
-            return False
-        if n is not None and n < NUMBA_MIN_SAMPLES:
-            return False
-        try:
-            compile_all()
-        except ImportError:
-            return False
-        return True
-    if use_numba:
-        compile_all()
-    return bool(use_numba)
+    """use_numba, or for None: the pass has at least NUMBA_MIN_SAMPLES samples n and robocal.model.kernel_jit's
+    numba_chosen says yes (ROBOCAL_NO_NUMBA unset and numba imports; the kernels are jitted here, on the first
+    such pass: seconds the first time, then loaded from numba's cache)."""
+    if use_numba is None and n is not None and n < NUMBA_MIN_SAMPLES:
+        return False
+    return numba_chosen(use_numba, compile_all)
 
 
 def compile_all() -> None:

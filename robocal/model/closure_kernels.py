@@ -298,12 +298,8 @@ def point_parameter_rows(R, p, G, joints1, joints2, R1f, p1f, R2f, p2f, unrotate
 
 KERNELS = ("quaternion_matrix", "motion_column", "anchor", "tree_state", "integrate", "point_rows", "active_twists",
            "point_parameter_rows")
-_compiled = False
 
 
 def compile_kernels():
     """jit the kernels in place (robocal.model.kernel_jit). Raises ImportError without numba."""
-    global _compiled
-    if not _compiled:
-        jit_in_place(globals(), KERNELS)
-        _compiled = True
+    jit_in_place(globals(), KERNELS)

@@ -68,12 +68,8 @@ def predicted_moves(solver, C_theta, entry_row, entry_col, dx, dq, dc_max):
 
 
 KERNELS = ("frame_solved_columns", "predicted_moves")
-_compiled = False
 
 
 def compile_kernels():
     """jit the kernels in place (robocal.model.kernel_jit). Raises ImportError without numba."""
-    global _compiled
-    if not _compiled:
-        jit_in_place(globals(), KERNELS)
-        _compiled = True
+    jit_in_place(globals(), KERNELS)

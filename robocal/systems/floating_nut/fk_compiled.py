@@ -15,10 +15,10 @@ the numpy path, and without numba robocal runs as before. Install with `pip inst
 from __future__ import annotations
 
 import math
-import os
 
 import numpy as np
 
+from robocal.model.kernel_jit import jit_in_place, numba_chosen
 from robocal.systems.floating_nut.fk import SinglePoseFK, rotation_xyz, rotation_zyx
 from robocal.systems.floating_nut.results import SINGULAR_TOL, FKResult
 
@@ -32,16 +32,8 @@ U, RC, AXRC, AC, AU, UU, CU, ACU, LEN, X, Y, THETA = 0, 3, 6, 9, 10, 11, 12, 13,
 
 
 def numba_wanted(use_numba: bool | None) -> bool:
-    """use_numba, or for None: ROBOCAL_NO_NUMBA is unset (or 0) and numba imports."""
-    if use_numba is None:
-        if os.environ.get("ROBOCAL_NO_NUMBA", "0").strip() not in ("", "0"):
-            return False
-        try:
-            _compile()
-        except ImportError:
-            return False
-        return True
-    return bool(use_numba)
+    """use_numba, or for None: ROBOCAL_NO_NUMBA is unset (or 0) and numba imports (robocal.model.kernel_jit)."""
+    return numba_chosen(use_numba, _compile)
 
 
 def single_pose_solver(kin, use_numba: bool | None = None) -> SinglePoseFK:
@@ -307,17 +299,9 @@ def _newton(L, p, cold, consts, home, home_piv, curvature, euler, compensate, fu
 
 _KERNEL = ("rotation_zyx", "rotation_xyz", "_rotation", "_rotate", "_evaluate", "_jacobian", "_regular", "_lu_factor", "_lu_solve",
            "_condition_bound", "_newton")
-_compiled = False
 
 
 def _compile():
-    """jit the kernel functions in place on first use; numba is imported here only. cache=True keeps
-    the machine code in __pycache__, so later processes skip the compilation."""
-    global _compiled
-    if not _compiled:
-        from numba import njit
-        jit = njit(cache=True, error_model="numpy")    # numpy error model: 1/0 gives inf, as numpy
-        names = globals()
-        for name in _KERNEL:                            # callees first: a jitted caller needs them jitted
-            names[name] = jit(getattr(names[name], "py_func", names[name]))   # py_func: racing threads
-        _compiled = True
+    """jit the kernel functions in place on first use (robocal.model.kernel_jit: cache=True keeps the machine code
+    in __pycache__, so later processes skip the compilation)."""
+    jit_in_place(globals(), _KERNEL)
