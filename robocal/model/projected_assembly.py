@@ -20,9 +20,9 @@ from __future__ import annotations
 from typing import Callable
 
 import numpy as np
+from robocal.model.closure_solves import NEGLIGIBLE_DAMPING
 from robocal.model.inverse_kinematics import ARMIJO, check_regular, damped_step
 
-NEGLIGIBLE_DAMPING = 1e-20   # |c|^2 below which the damped step is the plain one to rounding (as closed_chain_batch)
 
 
 def regular_enough(a: np.ndarray, rcond: float) -> bool:
