@@ -25,6 +25,8 @@ import numpy as np
 
 from robocal.errors import InputError
 
+#: set in every LocalCluster worker: one BLAS thread per single-threaded worker process
+WORKER_ENV = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
 #: times a finished task's lost result is awaited again (its worker died before the result was fetched)
 MAX_RESULT_WAITS = 3
 #: Dask's cost per task: CPU of every process (the client and scheduler, the worker's event loop, serialisation)
@@ -54,10 +56,7 @@ LOCAL_CONFIG = {"distributed.worker.profile.enabled": False, "distributed.schedu
                 # Dask's default also sets MALLOC_TRIM_THRESHOLD_=65536 in every worker, which fixes glibc's mmap
                 # threshold: each numpy temporary above 128 kB is then mapped and unmapped afresh, and a 30-pose
                 # UR5 unit ran 5-8 % slower in a process with it (benchmarks/fleet_unit_context.py, docs/fleet.md)
-                "distributed.nanny.pre-spawn-environ": {"OMP_NUM_THREADS": 1, "MKL_NUM_THREADS": 1,
-                                                        "OPENBLAS_NUM_THREADS": 1}}
-#: set in every LocalCluster worker: one BLAS thread per single-threaded worker process
-WORKER_ENV = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+                "distributed.nanny.pre-spawn-environ": dict(WORKER_ENV)}
 
 
 def default_workers() -> int:
