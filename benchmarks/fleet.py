@@ -53,8 +53,17 @@ def settings_at(commit: str) -> dict:
     source = subprocess.run(["git", "-C", os.path.dirname(os.path.abspath(__file__)), "show",
                              f"{commit}:robocal/estimation/parallel_map.py"], check=True, capture_output=True,
                             text=True).stdout
-    return {node.targets[0].id: ast.literal_eval(node.value) for node in ast.parse(source).body
-            if isinstance(node, ast.Assign) and getattr(node.targets[0], "id", None) in SETTINGS}
+    # literal values, or expressions of earlier literal module constants (LOCAL_CONFIG holds dict(WORKER_ENV))
+    names: dict = {}
+    for node in ast.parse(source).body:
+        if isinstance(node, ast.Assign) and isinstance(node.targets[0], ast.Name):
+            try:
+                names[node.targets[0].id] = ast.literal_eval(node.value)
+            except ValueError:
+                if node.targets[0].id in SETTINGS:
+                    names[node.targets[0].id] = eval(compile(ast.Expression(node.value), commit, "eval"),
+                                                     {"__builtins__": {"dict": dict}}, dict(names))
+    return {k: v for k, v in names.items() if k in SETTINGS}
 
 
 def fleet_copy(fleet_yaml: Path, out: str) -> Path:

@@ -40,7 +40,7 @@ def ctx_thread_loop(jobs, tick=0.02):
     return asyncio.run(main())
 
 CTX = {"main": ctx_main, "thread": ctx_thread, "thread+loop20ms": ctx_thread_loop,
-       "thread+loop100ms": lambda j: ctx_thread_loop(j, 0.1)}
+       "thread+loop100ms": lambda j: ctx_thread_loop(j, 0.1), "thread+loop3ms": lambda j: ctx_thread_loop(j, 0.003)}
 
 def child(name, jobs):
     return CTX[name](jobs)
