@@ -183,7 +183,7 @@ class CompiledPass:
         closure_kernels.tree_state(np.ascontiguousarray(q, dtype=float), self.parents, self.kinds, self.idx_q,
                                    self.axis, self.aligned, self.unrotated, self.placement_R, self.placement_p,
                                    *self.columns, R, p, W)
-        c, Cs = np.empty((n, self.n_rows)), np.empty((n, self.n_rows, self.ns))
+        c, Cs = np.empty((n, self.n_rows)), np.zeros((n, self.n_rows, self.ns))    # zeros: point_rows' contract
         for g, point, placed in zip(self.groups, self.points, self.anchors):
             if point is not None:
                 closure_kernels.point_rows(R, p, W, *point[0][:2], *placed, point[0][2], *point[1], c, Cs)

@@ -178,8 +178,9 @@ def anchor(R, p, s, j, fR, fp, unrotated, k, Ra, pa, o):
 def point_rows(R, p, W, joints1, joints2, R1f, p1f, R2f, p2f, unrotated1, unrotated2, rows, mask_cols, mask_values, c, Cs):
     """c = R1^T (p2 - p1) and C_s = [R1^T, p2 x rows of R1^T] W on the solved columns that move the closure
     (mask_cols (k, w), padded with -1, with their signs mask_values; as closure_groups.closure_state), written
-    into the rows (k, 3) of c (n, m) and Cs (n, m, ns)."""
-    n, k_count, ns = R.shape[0], joints1.shape[0], W.shape[2]
+    into the rows (k, 3) of c (n, m) and Cs (n, m, ns). Cs must be zero on entry: only the moving columns are
+    written (zeroing the others here took half the kernel's time; the caller's np.zeros is nearly free)."""
+    n, k_count = R.shape[0], joints1.shape[0]
     R1, R2 = np.empty((1, 3, 3)), np.empty((1, 3, 3))
     p1, p2 = np.empty((1, 3)), np.empty((1, 3))
     e, f = np.empty((3, 3)), np.empty((3, 3))
@@ -194,8 +195,6 @@ def point_rows(R, p, W, joints1, joints2, R1f, p1f, R2f, p2f, unrotated1, unrota
                 c[s, r] = e0 * (x0 - p1[0, 0]) + e1 * (x1 - p1[0, 1]) + e2 * (x2 - p1[0, 2])
                 e[i, 0], e[i, 1], e[i, 2] = e0, e1, e2
                 f[i, 0], f[i, 1], f[i, 2] = x1 * e2 - x2 * e1, x2 * e0 - x0 * e2, x0 * e1 - x1 * e0
-                for col in range(ns):
-                    Cs[s, r, col] = 0.0
             for t in range(mask_cols.shape[1]):       # each moving column's twist read once for the three rows
                 col = mask_cols[k, t]
                 if col < 0:
