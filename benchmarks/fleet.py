@@ -2,17 +2,21 @@
 units split over plain processes (multiprocessing, no Dask), and against the Dask settings of a baseline commit
 (default: main), all in the same run.
 
-    OMP_NUM_THREADS=1 python benchmarks/fleet.py [--units 200] [--samples 30] [--repeats 5] [--workers 2]
+    OMP_NUM_THREADS=1 python benchmarks/fleet.py [--units 200] [--samples 30] [--repeats 5] [--workers 2] [--ways W,..]
                                                  [--baseline main]
 
 Like for like:
 - started: the process pool, and for each Dask way a LocalCluster with that way's settings, are started and
-  warmed up (robocal imported, one real unit run in every worker) before the clock; `fleet run --scheduler`
-  on the running cluster. The plain processes get their units in one message each and return rows; `fleet
-  run` also writes the fleet table (about 10 ms a write, once a second).
+  warmed up (robocal imported, one real unit run in every worker) before the clock; run_fleet on the running
+  cluster, handed its Client ("a second client": handed the scheduler's address instead, as `fleet run
+  --scheduler` is, which connects a second Client with its own event-loop thread in this process, where the
+  LocalCluster's scheduler runs too). The plain processes get their units in one message each and return rows;
+  `fleet run` also writes the fleet table (about 10 ms a write, once a second).
 - from cold: the clock includes starting the pool or the LocalCluster (`fleet run --workers N`).
 The baseline's settings (LOCAL_CONFIG, TASK_OVERHEAD_S, OVERHEAD_SHARE) are read from its
-robocal/estimation/parallel_map.py (git show, ast) and set in this tree's module for its ways.
+robocal/estimation/parallel_map.py (git show, ast) and set in this tree's module for its ways (its code is this
+tree's: the workers' heap freeze included). "heap not frozen": this tree with the workers' gc.freeze after their
+first task (parallel_map.freeze_heap) skipped.
 Each repeat runs every way once, in turn (the order rotates between repeats), on a fresh output folder; the
 table gives medians of the repeats, and each way's ratio to the plain processes is the median of the per-repeat
 ratios (slow drifts of the machine's load cancel). CPU s counts every process of the way (workers, nannies,
@@ -73,6 +77,12 @@ def fleet_copy(fleet_yaml: Path, out: str) -> Path:
     path = fleet_yaml.with_name(f"fleet_{out}.yaml")
     path.write_text(yaml.safe_dump(raw))
     return path
+
+
+def skip_heap_freeze() -> None:
+    """In a worker: mark its heap as frozen already, so parallel_map.freeze_heap is not run there."""
+    from robocal.estimation import parallel_map as worker_side
+    worker_side.FROZEN.append(True)
 
 
 def calibrate_all(jobs) -> list[dict]:
@@ -159,6 +169,8 @@ def main():
     ap.add_argument("--baseline", default="main", help="the commit whose Dask settings are the baseline")
     ap.add_argument("--started-only", action="store_true", help="leave out the ways from cold (more repeats in the "
                     "same time: the started ways are those the machine's load disturbs least)")
+    ap.add_argument("--ways", default="", help="only the ways whose name contains one of these comma-separated "
+                    "words (the plain processes always run: every ratio is to them)")
     args = ap.parse_args()
     W = args.workers
     base = settings_at(args.baseline)
@@ -191,20 +203,27 @@ def main():
                     pool, load_fleet(fleet_copy(fleet.fleet_yaml, f"p{rep}")).jobs, W),
                 f"fleet run, {W} workers, {args.baseline}'s settings (started)": ("started", base, "b"),
                 f"fleet run, {W} workers, this tree (started)": ("started", mine, "m"),
+                f"fleet run, {W} workers, this tree, heap not frozen (started)": ("started", mine, "n"),
+                f"fleet run, {W} workers, this tree, a second client (started)": ("started", mine, "a"),
                 f"{W} plain processes (from cold)": pool_cold,
                 f"fleet run --workers {W}, {args.baseline}'s settings (from cold)": dask_cold(base, "cb"),
                 f"fleet run --workers {W}, this tree (from cold)": dask_cold(mine, "cm"),
             }
-            names = [n for n in ways if not (args.started_only and "cold" in n)]
+            wanted = [w for w in args.ways.split(",") if w]
+            names = [n for n in ways if not (args.started_only and "cold" in n)
+                     and (not wanted or "plain" in n or any(w in n for w in wanted))]
             for rep in range(args.repeats):
                 for name in names[rep % len(names):] + names[:rep % len(names)]:
                     way = ways[name]
                     if isinstance(way, tuple):          # a started cluster: started and warmed before the clock
                         _, values, tag = way
                         with started_cluster(values, W, jobs) as client, settings(values):
+                            if tag == "n":      # the workers skip parallel_map.freeze_heap
+                                client.run(skip_heap_freeze)
                             t0, c0, o0 = time.perf_counter(), cpu_seconds(), own_cpu()
                             rows = read_table(run_fleet(fleet_copy(fleet.fleet_yaml, f"{tag}{rep}"),
-                                                        scheduler=client.scheduler.address).table_path)
+                                                        scheduler=client.scheduler.address if tag == "a"
+                                                        else client).table_path)
                             wall, cpu, own = time.perf_counter() - t0, cpu_seconds() - c0, own_cpu() - o0
                     else:
                         t0, c0, o0 = time.perf_counter(), cpu_seconds(), own_cpu()
@@ -214,7 +233,7 @@ def main():
                                                        statistics.mean(r["elapsed_s"] for r in rows), cpu, own))
         with started_cluster(mine, W, jobs) as client:
             task_cpu, beside = per_task_cpu(client)
-    print(f"{'how':<52}{'converged':>10}{'wall s':>8}{'fit ms':>8}{'CPU s':>7}{'client CPU':>11}"
+    print(f"{'how':<62}{'converged':>10}{'wall s':>8}{'fit ms':>8}{'CPU s':>7}{'client CPU':>11}"
           f"{'vs plain: wall':>16}{'CPU':>6}{'wall, each repeat':>20}")
     med = {k: [statistics.median(x[i] for x in v) for i in range(5)] for k, v in times.items()}
     for name in names:
@@ -224,7 +243,7 @@ def main():
         each = sorted(p[0] / t[0] for p, t in zip(ref, times[name]))
         r_wall = statistics.median(each)
         r_cpu = statistics.median(p[3] / t[3] for p, t in zip(ref, times[name]))
-        print(f"{name:<52}{ok:>10}{wall:>8.2f}{1e3 * fit:>8.1f}{cpu:>7.2f}{own:>11.2f}{100 * r_wall:>15.0f}%"
+        print(f"{name:<62}{ok:>10}{wall:>8.2f}{1e3 * fit:>8.1f}{cpu:>7.2f}{own:>11.2f}{100 * r_wall:>15.0f}%"
               f"{100 * r_cpu:>5.0f}%{100 * each[0]:>12.0f}-{100 * each[-1]:.0f}%")
     unit = med[f"{W} plain processes (started)"][2]
     print(f"\n{args.units} units; medians of {args.repeats} runs of each way (ways in turn, order rotated between "

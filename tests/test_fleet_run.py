@@ -145,6 +145,16 @@ def test_items_travel_in_batches_and_come_back_once_each(cluster):
     assert map_tasks(sleepy_square, range(10), scheduler=cl.scheduler_address) == [i * i for i in range(10)]
 
 
+def test_a_running_client_is_used_as_it_is_and_left_open(cluster):
+    """scheduler=<Client>: no second connection (dask_client yields that Client), and it is not closed after."""
+    from robocal.estimation.parallel_map import dask_client, map_tasks
+    cl, client = cluster
+    with dask_client(client) as used:
+        assert used is client
+    assert map_tasks(sleepy_square, range(6), scheduler=client) == [i * i for i in range(6)]
+    assert client.status == "running" and client.submit(sleepy_square, 3).result() == 9
+
+
 def noisy_mean(rng):
     return float(rng.normal(size=50).mean())
 
@@ -170,6 +180,24 @@ def test_robocal_local_cluster_settings_reach_the_workers():
         trim = client.run(lambda: os.environ.get("MALLOC_TRIM_THRESHOLD_"))
     assert list(seen.values()) == [LOCAL_CONFIG]
     assert list(trim.values()) == [os.environ.get("MALLOC_TRIM_THRESHOLD_")]   # glibc's own, as in the client
+
+
+def frozen_objects(_):
+    import gc
+    return gc.get_freeze_count()
+
+
+def test_a_worker_freezes_its_heap_after_its_first_task_and_the_caller_never():
+    """parallel_map.freeze_heap: a worker's first task runs on the heap as it is, every later one finds the
+    objects alive then in the permanent generation; a Batch run in the process that made it freezes nothing."""
+    import gc
+    from robocal.estimation.parallel_map import Batch, completed
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=":0") as one, \
+            Client(one) as solo:
+        counts = sorted(r for _, r, exc in completed(solo, frozen_objects, list(range(6))))
+    assert counts[0] == 0 and counts[1] > 10_000, counts     # one first task; the worker's modules and state
+    before = gc.get_freeze_count()
+    assert Batch(frozen_objects)([0, 1]) and gc.get_freeze_count() == before
 
 
 def test_plan_curve_on_the_cluster_equals_the_serial_run(cluster, tmp_path):

@@ -42,9 +42,11 @@ def lost_row(job: UnitJob, exc: BaseException) -> dict:
             "message": f"the cluster lost this unit's task ({type(exc).__name__}: {exc}); a re-run calibrates it"}
 
 
-def run_fleet(fleet: str | Path | FleetSpec, scheduler: str | None = None, workers: int | None = None,
+def run_fleet(fleet: str | Path | FleetSpec, scheduler=None, workers: int | None = None,
               progress: Callable[[int, int, dict], None] | None = None) -> FleetRun:
-    """Calibrate the units of `fleet` not yet in its table; progress(done, to_do, row) after each one."""
+    """Calibrate the units of `fleet` not yet in its table; progress(done, to_do, row) after each one.
+    scheduler: a Dask scheduler's address or a running dask.distributed Client (used as it is, left open);
+    neither: a LocalCluster of `workers` processes (robocal.estimation.parallel_map.dask_client)."""
     spec = fleet if isinstance(fleet, FleetSpec) else load_fleet(fleet)
     table = FleetTable.open(spec.table_path)
     todo = [j for j in spec.jobs if not table.is_done(j, FINAL_STATUSES)]
