@@ -101,7 +101,8 @@ def test_a_rerun_does_no_work(first_run, fleet, monkeypatch):
 
 def test_killing_a_worker_during_a_run_loses_no_unit(cluster, fleet, monkeypatch):
     cl, client = cluster
-    monkeypatch.setattr(runner, "FLUSH_SECONDS", 0.0)    # write the table after every unit
+    monkeypatch.setattr(runner, "FLUSH_SECONDS", 0.0)    # write the table after every unit,
+    monkeypatch.setattr(runner, "WRITE_SHARE", float("inf"))   # however long a write takes
     seen = []
     raw = yaml.safe_load(fleet.fleet_yaml.read_text())
     raw["output"] = {"dir": "fleet-output-kill", "table": "fleet.parquet"}
@@ -124,6 +125,13 @@ def test_killing_a_worker_during_a_run_loses_no_unit(cluster, fleet, monkeypatch
     assert len(rows) == N_UNITS and len({r["key"] for r in rows}) == N_UNITS
     assert sum(r["status"] == "converged" for r in rows) == N_UNITS - 2
     shutil.rmtree(fleet.fleet_yaml.parent / "fleet-output-kill")
+
+
+def test_the_table_is_rewritten_less_often_once_a_rewrite_takes_long():
+    """flush_interval: every FLUSH_SECONDS while a rewrite is quick; once it is not, rewrites take WRITE_SHARE
+    of the time (a whole-table rewrite grows with the fleet: 0.3 s at 10000 rows)."""
+    assert runner.flush_interval(0.008) == runner.FLUSH_SECONDS == 1.0
+    assert runner.flush_interval(0.3) == pytest.approx(0.3 / runner.WRITE_SHARE) == pytest.approx(15.0)
 
 
 def sleepy_square(x):
