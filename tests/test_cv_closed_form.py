@@ -104,7 +104,7 @@ def test_select_writes_the_chosen_rungs_fit_as_a_fresh_calibration_would(tmp_pat
     config = read_config(cfg)
     selection = select_model(config)
     assert selection.chosen in selection.fits and "no refits" in selection.folds
-    kept = run_selected(config, selection, tmp_path / "kept")
+    run_selected(config, selection, tmp_path / "kept")
     fresh = setup_for_data(config, parameters=selection.rungs[selection.chosen].parameters)
     extra = {"selection.json": (tmp_path / "kept" / "selection.json").read_bytes()}
     run_calibration(fresh, tmp_path / "fresh", extra=extra)
