@@ -70,10 +70,9 @@ def dask_client(scheduler=None, workers: int | None = None):
     a new one on `scheduler` when it is an address (such as tcp://host:8786), else on a LocalCluster of `workers`
     single-threaded processes (default: the usable cores). Those it made are closed on exit.
 
-    Handing over a running Client spares a second connection in the process: a second Client runs its own event
-    loop thread beside the first, and with the scheduler in the same process (a LocalCluster started in Python)
-    that cost 200 UR5 units on 2 workers about 5 % of their time (docs/fleet.md, "What separates Dask from plain
-    processes")."""
+    Handing over a running Client spares a second connection in the process, with its own event-loop thread
+    beside the first (on 200 UR5 units and 2 workers the two ways measured within the benchmark's spread:
+    docs/fleet.md, "What separates Dask from plain processes")."""
     from dask.distributed import Client, LocalCluster   # optional [fleet] extra
 
     if isinstance(scheduler, Client):
@@ -149,8 +148,9 @@ def freeze_heap() -> None:
     """After a worker's first task: collect, then move every object alive (the interpreter's, Dask's and robocal's
     modules, the worker's own state: ~90k objects, against ~50k in a plain process) into the permanent generation
     (gc.freeze), so the cyclic collector stops walking them at each full collection while the items run. They stay
-    alive anyway; reference counting still frees them. Measured (docs/fleet.md, "What separates Dask from plain
-    processes"): 200 UR5 units on 2 workers, 90 % -> 96 % of 2 plain processes."""
+    alive anyway; reference counting still frees them. Measured on 200 UR5 units and 2 workers (docs/fleet.md,
+    "What separates Dask from plain processes"): 90 % -> 96 % of 2 plain processes' speed in a probe of
+    `completed`, 90 % -> 92 % in benchmarks/fleet.py's `fleet run` (15 repeats)."""
     gc.collect()
     gc.freeze()
     FROZEN.append(True)
