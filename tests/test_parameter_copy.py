@@ -7,7 +7,7 @@ from robocal.model.parameters import robot_parameters
 
 def test_a_copy_equals_deepcopy_and_shares_nothing_mutable():
     robot = robocal.load_example("ur5")
-    joints = [n for n in robot.model.names[1:]]
+    joints = list(robot.model.names[1:])
     params = robot_parameters(robot, joints, "full", frames={"tool0": True}, base=True, compliance=True)
     first = next(iter(params))
     first.tied_to, first.confounded_with = {"a": 0.5}, [("b", 0.9)]
