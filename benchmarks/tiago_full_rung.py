@@ -11,6 +11,7 @@ tracker frame refitted there ("refit"):
 - the same selection made at the registered nominal (BL where the registration puts it);
 - FIGAROH's 30 parameters (the set its structural selection keeps on Linux, from its own run:
   benchmarks/figaroh/calibration_driver.py in 'script' mode), every other parameter held at nominal;
+- the default prior (one strength per scale family) and, for comparison, its best common strength;
 - the selection rule's full rung (docs/validation.md): the default prior at the strength of the grid with the
   lowest closed-form leave-one-out error by posture.
 """
@@ -59,6 +60,11 @@ def fit(parameters=None, regularisation="none", strength=None):
     return parameters, setup, calibrate(setup.problem, setup.options)
 
 
+def common_strength() -> float:
+    """The evidence's best common strength (what the default prior used before one strength per family)."""
+    return fit(regularisation="auto")[2].default_prior.strength
+
+
 def main() -> None:
     start = setup_for_data(CONFIG)
     reg = register_nominal(start.problem, start.options).values
@@ -67,7 +73,9 @@ def main() -> None:
             ("robocal, selection at the registered nominal", fit({"initial": reg})),
             ("FIGAROH 1.0.2's 30 parameters, fitted by robocal",
              fit({"fix": ["*"], "free": ["base.*", "BL.point.*"] + FIGAROH_SET})),
-            ("robocal default prior (strength by the evidence)", fit(regularisation="auto")),
+            ("robocal default prior (strength per scale family by the evidence)", fit(regularisation="auto")),
+            ("the same, one common strength (before the per-family rule)",
+             fit(regularisation="auto", strength=common_strength())),
             (f"selection rule: strength {figure.strength} (closed-form LOO by posture)",
              fit(regularisation="auto" if figure.strength is not None else "none", strength=figure.strength))]
     print("| model | free | status | train | closed-form LOO | validation, tracker kept | validation, tracker refit |")
@@ -81,7 +89,9 @@ def main() -> None:
           + ", ".join(sorted(set(second.params.free_names) - set(first.params.free_names))))
     print("the rule's strength grid (closed-form LOO by posture, mm): "
           + ", ".join(f"{s}: {v:.2f}" for s, v, _ in figure.per_strength))
-    print(f"default prior of the evidence: strength {rows[3][1][2].default_prior.strength:.3g}")
+    prior = rows[3][1][2].default_prior
+    print(f"default prior of the evidence: common strength {prior.strength:.3g}; by scale family "
+          + ", ".join(f"{f} {v:.3g}" for f, v in prior.by_family.items()))
 
 
 if __name__ == "__main__":

@@ -152,6 +152,11 @@ class PhysicalScales:
     scale: dict[str, float]
     determined: dict[str, float]
     basis: dict[str, str] = field(default_factory=dict)
+    family: dict[str, str] = field(default_factory=dict)   # length | angle | relative | set-up: what the scale
+                                                           # derives from (the default prior's strength is per family)
+
+    def families(self, names) -> list[str]:
+        return [self.family.get(n, "set-up") for n in names]
 
     def of(self, names) -> np.ndarray:
         return np.array([self.scale.get(n, np.inf) for n in names])
@@ -172,7 +177,7 @@ def physical_scales(problem, det_length: float = DETERMINED_LENGTH, det_angle: f
     size = robot_size(robot, joints)
     needs_load = any(p.kind in ("joint_compliance", "joint_tilt") for p in params)
     loads = joint_loads(robot, joints, problem.values) if needs_load else JointLoads({}, {}, {})
-    scale, det, basis = {}, {}, {}
+    scale, det, basis, family = {}, {}, {}, {}
     measured = measured_frames(problem)
     # set-up quantities with a physical scale of their own (a camera's intrinsics): the residual says it
     declared = {n: v for r in problem.residuals for n, v in r.aux_scales().items()}
@@ -180,6 +185,7 @@ def physical_scales(problem, det_length: float = DETERMINED_LENGTH, det_angle: f
     for p in params:
         if p.name in declared:
             scale[p.name], det[p.name] = declared[p.name]
+            family[p.name] = "set-up"
             continue
         if is_registration(p, measured):
             if p.unit in ("m", "rad"):
@@ -207,9 +213,12 @@ def physical_scales(problem, det_length: float = DETERMINED_LENGTH, det_angle: f
                 continue                      # a discrete sign; a ratio of zero has no relative scale
             scale[p.name], det[p.name] = length_fraction * abs(p.value), DETERMINED_RELATIVE * abs(p.value)
             basis[p.name] = f"{length_fraction:.0%} of its nominal value {p.value:.6g}"
+            family[p.name] = "relative"
+            continue
         else:
             scale[p.name], det[p.name] = ref, ref_det
-    return PhysicalScales(size, scale, det, basis)
+        family[p.name] = "length" if is_length(p) else "angle"
+    return PhysicalScales(size, scale, det, basis, family)
 
 
 def unit_label(p: Parameter | str) -> tuple[float, str]:

@@ -41,7 +41,8 @@ class Registered:
 class DefaultPrior:
     mode: str                        # auto | none
     applied: bool
-    strength: float | None = None    # prior sigma = strength x physical scale
+    strength: float | None = None    # prior sigma = strength x physical scale (a given strength, or the best
+                                     # common one of the evidence)
     noise_ratio: float | None = None # measured noise / stated sigma (evidence estimate)
     names: list[str] = field(default_factory=list)    # parameters that got the prior (those without one of their own)
     loose: list[str] = field(default_factory=list)    # of the kept ones, those the data alone leave beyond their
@@ -49,11 +50,20 @@ class DefaultPrior:
                                                       # stated sigmas: why it was applied
     reason: str = ""
     method: str = "evidence of the linearised Gaussian model"
+    by_family: dict[str, float] = field(default_factory=dict)   # the strength each scale family got
 
     def to_dict(self) -> dict:
         return {"mode": self.mode, "applied": self.applied, "strength_in_physical_scales": self.strength,
+                "strength_by_family": dict(self.by_family),
                 "noise_over_stated_sigma": self.noise_ratio, "method": self.method,
                 "parameters_given_prior": self.names, "loose_at_registered_nominal": self.loose, "reason": self.reason}
+
+    def sigma_text(self) -> str:
+        """"sigma = 0.5 x physical scale", or per family where they differ."""
+        values = set(self.by_family.values())
+        if len(values) <= 1:
+            return f"sigma = {self.strength:.3g} x physical scale"
+        return "sigma = " + ", ".join(f"{v:.3g} x physical scale ({f}s)" for f, v in self.by_family.items())
 
     def describe(self) -> str:
         if self.mode == "none":
@@ -62,9 +72,9 @@ class DefaultPrior:
             return f"Default prior: not needed ({self.reason})."
         if self.noise_ratio is None:      # a given strength: no evidence was computed
             return (f"Default prior: given to the {len(self.names)} robot parameters without a prior of their own, "
-                    f"sigma = {self.strength:.3g} x physical scale ({self.reason}).")
+                    f"{self.sigma_text()} ({self.reason}).")
         return (f"Default prior: given to the {len(self.names)} robot parameters without a prior of their own, "
-                f"sigma = {self.strength:.3g} x physical scale (chosen by the {self.method}; measured noise "
+                f"{self.sigma_text()} (chosen by the {self.method}; measured noise "
                 f"{self.noise_ratio:.3g} x stated sigma); {self.reason}.")
 
 
@@ -222,7 +232,8 @@ def apply_default_prior(problem, registered: Registered, scales, rtol: float,
         for n in names:
             params[n].prior_sigma, params[n].prior_mean = strength * scales.scale[n], params[n].value
         return DefaultPrior("auto", True, float(strength), None, names, [],
-                            reason="strength given (chosen by held-out error)", method="given strength")
+                            reason="strength given (chosen by held-out error)", method="given strength",
+                            by_family={f: float(strength) for f in dict.fromkeys(scales.families(names))})
     if registered.evaluation is not None:       # the registration's last pass, with every column
         ev = registered.evaluation
     else:
@@ -250,7 +261,7 @@ def apply_default_prior(problem, registered: Registered, scales, rtol: float,
     sel = select_base_parameters(J, free, rtol)
     kept = [free[j] for j in sel.independent]
     sc = np.array([scales.scale[n] if n in candidates else np.inf for n in kept])
-    evd = choose_strength(J[:, sel.independent], r, sc, n_rows=n_rows)
+    evd = choose_strength(J[:, sel.independent], r, sc, n_rows=n_rows, families=scales.families(kept))
     # looseness is a property of the design: judged at the stated sigmas, not at the measured noise, which
     # a model far from the data (a poor nominal, a wrong model) inflates
     at_stated = evd.stderr / np.sqrt(evd.noise2) if evd.noise2 > 0 else evd.stderr
@@ -262,8 +273,10 @@ def apply_default_prior(problem, registered: Registered, scales, rtol: float,
     # every robot parameter gets it, also those the data cannot separate at all: fixing them at nominal
     # leaves the kept ones to absorb their true errors only to first order, and the fit stalls (docs/validation.md)
     names = [n for n in free if n in candidates]
-    for n in names:
-        params[n].prior_sigma, params[n].prior_mean = evd.strength * scales.scale[n], params[n].value
-    return DefaultPrior("auto", True, evd.strength, noise, names, loose,
+    # a family none of whose parameters the selection kept (all confounded) takes the common strength
+    by_family = {f: evd.by_family.get(f, evd.strength) for f in dict.fromkeys(scales.families(names))}
+    for n, f in zip(names, scales.families(names)):
+        params[n].prior_sigma, params[n].prior_mean = by_family[f] * scales.scale[n], params[n].value
+    return DefaultPrior("auto", True, evd.strength, noise, names, loose, by_family=by_family,
                         reason=f"applied because, at the registered nominal model and the stated sigmas, the data "
                                f"alone leave {len(loose)} of them beyond their physical scale: {', '.join(loose)}")

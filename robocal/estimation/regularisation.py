@@ -4,7 +4,10 @@ Model (docs/validation.md): about the registered nominal model the scaled residu
 e ~ N(0, s2 I) (s2: the measured noise, in units of the stated sigmas) and each robot parameter's error
 d_j ~ N(0, (lam * scale_j)^2), scale_j its physical scale (robocal.estimation.physical_scale). The
 registration parameters (base, measurement set-up, tool) get a flat prior: they are projected out. The
-evidence p(r | lam, s2) is maximised over s2 for each lam of a fixed grid and the best lam kept.
+evidence p(r | lam, s2) is maximised over s2 for each lam of a fixed grid and the best lam kept. Where the
+prior covers parameters of several scale families (lengths, angles, ...: PhysicalScales.family), each family
+then gets its own lam, the evidence maximised jointly from that common one (family_strengths): the ratio of
+the length scale to the angle scale is a guess for any robot, and the data can tell it.
 
 Why the evidence (and not GCV or cross-validation): it needs one linearisation, no refit (cross-validation
 over folds would cost a fit per fold and per strength); it estimates the noise level s2 at the same time,
@@ -13,7 +16,7 @@ prior (lam at the top of the grid), so it does not bias what the data already de
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.linalg
@@ -24,10 +27,11 @@ RANK_TOL = 1e-10
 
 @dataclass
 class Evidence:
-    strength: float            # lam: prior sigma = lam * physical scale
+    strength: float            # lam: prior sigma = lam * physical scale (the best common one)
     noise2: float              # s2: measured noise variance in units of the stated sigma^2
     log_evidence: np.ndarray   # over STRENGTHS (each maximised over s2)
     stderr: np.ndarray         # data-only standard error of each scaled column, in physical scales (inf: none)
+    by_family: dict = field(default_factory=dict)   # the strength of each scale family (all = strength if one)
 
 
 def project_out(J_flat: np.ndarray, *arrays: np.ndarray) -> tuple[int, list[np.ndarray]]:
@@ -41,12 +45,84 @@ def project_out(J_flat: np.ndarray, *arrays: np.ndarray) -> tuple[int, list[np.n
     return rank, [a - Q @ (Q.T @ a) for a in arrays]
 
 
+def profiled_log_evidence(d2: np.ndarray, z2: np.ndarray, rest: float, n_rest: int,
+                          scale0: float) -> tuple[np.ndarray, np.ndarray]:
+    """For each candidate prior (a row of d2: the squared singular values of the prior-scaled columns; z2: the
+    squared projections of the data on their left singular vectors), the log evidence maximised over the noise
+    variance s2, and that s2. rest: the data's squared norm outside those singular vectors, over n_rest rows."""
+    def neg_log_evidence(log_s2: np.ndarray) -> np.ndarray:
+        """Over a (candidates, points) array of log s2."""
+        s2 = np.exp(log_s2)
+        v = s2[..., None] + d2[:, None, :]
+        return 0.5 * (np.sum(z2[:, None, :] / v, axis=-1) + np.sum(np.log(v), axis=-1)
+                      + (rest / s2 if n_rest else 0.0) + n_rest * log_s2)
+
+    # each candidate's best log s2: the best of a grid one e-fold apart over the bracket, then a golden-section
+    # search within a step of it to 1e-7, for every candidate at once
+    grid = np.log(scale0) + np.arange(-30.0, 5.01, 1.0)
+    best = grid[np.argmin(neg_log_evidence(np.broadcast_to(grid, (len(d2), len(grid)))), axis=1)]
+    lo, hi = np.maximum(best - 1.0, grid[0]), np.minimum(best + 1.0, grid[-1])
+    ratio = (np.sqrt(5.0) - 1.0) / 2.0
+    a, b = hi - ratio * (hi - lo), lo + ratio * (hi - lo)
+    fa, fb = neg_log_evidence(a[:, None])[:, 0], neg_log_evidence(b[:, None])[:, 0]
+    while np.max(hi - lo) > 1e-7:
+        left = fa < fb                       # the minimum lies in [lo, b], else in [a, hi]
+        lo, hi = np.where(left, lo, a), np.where(left, b, hi)
+        x = np.where(left, hi - ratio * (hi - lo), lo + ratio * (hi - lo))     # the one new interior point
+        fx = neg_log_evidence(x[:, None])[:, 0]
+        a, fa, b, fb = (np.where(left, x, b), np.where(left, fx, fb),
+                        np.where(left, a, x), np.where(left, fa, fx))
+    t = 0.5 * (lo + hi)
+    return -neg_log_evidence(t[:, None])[:, 0], np.exp(t)
+
+
+def family_strengths(d: np.ndarray, Vt: np.ndarray, z: np.ndarray, families: np.ndarray, start: float,
+                     strengths: np.ndarray, rest: float, n_rest: int, scale0: float
+                     ) -> tuple[dict[str, float], float, float]:
+    """One strength per scale family, maximising the evidence jointly: from the best common strength, each family
+    in turn moves to its best grid value with the others held, until a sweep changes nothing (docs/validation.md,
+    "One strength per scale family"). Returns ({family: strength}, its log evidence, its noise variance).
+
+    From the unit-strength columns' SVD A = U diag(d) Vt and z = U^T y: per-column strengths L scale them to
+    A L = U C with C = diag(d) Vt L, whose SVD C = P S Q^T gives the singular values S and the projections P^T z;
+    the part of the data outside the columns' span (rest) does not depend on L."""
+    strengths = np.asarray(strengths, float)
+    order = list(dict.fromkeys(families))
+    DV = d[:, None] * Vt
+
+    def evaluate(candidates: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        P, S, _ = np.linalg.svd(DV[None] * candidates[:, None, :])
+        z2 = np.einsum("cki,k->ci", P, z) ** 2
+        return profiled_log_evidence(S ** 2, z2, rest, n_rest, scale0)
+
+    current = {f: float(start) for f in order}
+    best_value, best_noise = -np.inf, np.nan
+    for _ in range(20):
+        moved = False
+        for f in order:
+            lam = np.array([current[h] for h in families])
+            cands = np.repeat(lam[None, :], len(strengths), axis=0)
+            cands[:, families == f] = strengths[:, None]
+            values, noise = evaluate(cands)
+            here = int(np.argmin(np.abs(np.log(strengths) - np.log(current[f]))))
+            i = int(np.argmax(values))
+            if values[here] >= values[i] - 1e-9:
+                i = here                                           # a tie keeps the current value
+            moved |= i != here
+            current[f], best_value, best_noise = float(strengths[i]), float(values[i]), float(noise[i])
+        if not moved:
+            break
+    return current, best_value, best_noise
+
+
 def choose_strength(J: np.ndarray, r: np.ndarray, scales: np.ndarray, strengths=STRENGTHS,
-                    n_rows: int | None = None) -> Evidence:
+                    n_rows: int | None = None, families=None) -> Evidence:
     """Evidence-optimal prior strength for the columns of J with a finite scale (the others are flat).
 
     J (m, n): Jacobian of the scaled data rows; r (m,): scaled residual at the linearisation point. Or, with
     n_rows = m, the columns of the triangle T of [J r] (T^T T = [J r]^T [J r]): only inner products enter.
+    families: each column's scale family (robocal.estimation.physical_scale.PhysicalScales.family); with two or
+    more among the scaled columns, each family gets its own strength (`Evidence.by_family`).
     """
     scales = np.asarray(scales, float)
     scaled = np.isfinite(scales)
@@ -57,41 +133,22 @@ def choose_strength(J: np.ndarray, r: np.ndarray, scales: np.ndarray, strengths=
     rest = max(float(y @ y - z @ z), 0.0)
     k = len(d)
     n_rest = max(m_eff - k, 0)
-
-    def neg_log_evidence(log_s2: np.ndarray, lam: np.ndarray) -> np.ndarray:
-        """Over a (strengths, points) array of log s2; lam (strengths, 1)."""
-        s2 = np.exp(log_s2)
-        v = s2[..., None] + (lam[..., None] * d) ** 2
-        return 0.5 * (np.sum(z ** 2 / v, axis=-1) + np.sum(np.log(v), axis=-1) + (rest / s2 if n_rest else 0.0)
-                      + n_rest * log_s2)
-
-    # each strength's best log s2: the best of a grid one e-fold apart over the bracket, then a golden-section
-    # search within a step of it to 1e-7, for every strength at once
     scale0 = max((y @ y) / max(m_eff, 1), 1e-300)
-    lam = np.asarray(strengths, float)[:, None]
-    grid = np.log(scale0) + np.arange(-30.0, 5.01, 1.0)
-    best = grid[np.argmin(neg_log_evidence(np.broadcast_to(grid, (len(lam), len(grid))), lam), axis=1)]
-    lo, hi = np.maximum(best - 1.0, grid[0]), np.minimum(best + 1.0, grid[-1])
-    ratio = (np.sqrt(5.0) - 1.0) / 2.0
-    a, b = hi - ratio * (hi - lo), lo + ratio * (hi - lo)
-    fa, fb = neg_log_evidence(a[:, None], lam)[:, 0], neg_log_evidence(b[:, None], lam)[:, 0]
-    while np.max(hi - lo) > 1e-7:
-        left = fa < fb                       # the minimum lies in [lo, b], else in [a, hi]
-        lo, hi = np.where(left, lo, a), np.where(left, b, hi)
-        x = np.where(left, hi - ratio * (hi - lo), lo + ratio * (hi - lo))     # the one new interior point
-        fx = neg_log_evidence(x[:, None], lam)[:, 0]
-        a, fa, b, fb = (np.where(left, x, b), np.where(left, fx, fb),
-                        np.where(left, a, x), np.where(left, fa, fx))
-    t = 0.5 * (lo + hi)
-    curve = list(-neg_log_evidence(t[:, None], lam)[:, 0])
-    noise = list(np.exp(t))
+    lam = np.asarray(strengths, float)
+    curve, noise = profiled_log_evidence((lam[:, None] * d) ** 2, np.broadcast_to(z ** 2, (len(lam), k)), rest,
+                                         n_rest, scale0)
     i = int(np.argmax(curve))
+    fam = np.asarray(families if families is not None else ["common"] * len(scales), dtype=object)[scaled]
+    by_family = {f: float(lam[i]) for f in dict.fromkeys(fam)}
+    noise2 = float(noise[i])
+    if len(by_family) > 1 and k:
+        by_family, _, noise2 = family_strengths(d, Vt, z, fam, lam[i], lam, rest, n_rest, scale0)
     stderr = np.full(len(scales), np.inf)
     big = d > RANK_TOL * (d[0] if k else 1.0)
-    var = (Vt[big] ** 2 / d[big, None] ** 2).sum(0) * noise[i] if k else np.zeros(0)
+    var = (Vt[big] ** 2 / d[big, None] ** 2).sum(0) * noise2 if k else np.zeros(0)
     if k and big.sum() == len(d):
         stderr[scaled] = np.sqrt(var)
     elif k:   # a singular scaled block: the null directions are not determined at all
         null = (Vt[~big] ** 2).sum(0) > 1e-12
         stderr[scaled] = np.where(null, np.inf, np.sqrt(var))
-    return Evidence(float(strengths[i]), noise[i], np.array(curve), stderr)
+    return Evidence(float(lam[i]), noise2, np.array(curve), stderr, by_family)
