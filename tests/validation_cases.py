@@ -13,10 +13,11 @@ JOINTS = ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_j
           "wrist_3_joint"]
 
 
-def truth_params(robot, rng, compliance=None, geometric=True, offsets=None):
+def truth_params(robot, rng, compliance=None, geometric=True, offsets=None, errors=(5e-4, 5e-4)):
+    """errors: the placement errors' bounds (m, rad); by default half a millimetre / milliradian."""
     params = robot_parameters(robot, JOINTS, "full", base=True, compliance=list(compliance or {}))
-    if geometric:   # placement errors of half a millimetre / milliradian: the full model is needed
-        params = perturb(params, rng, 5e-4, 5e-4)
+    if geometric:   # placement errors: the full model is needed
+        params = perturb(params, rng, *errors)
     for j, c in (compliance or {}).items():
         params[f"{j}.compliance"].value = c
     for j, o in (offsets or {}).items():
@@ -25,11 +26,11 @@ def truth_params(robot, rng, compliance=None, geometric=True, offsets=None):
 
 
 def write_case(folder, rng, n=40, compliance=None, spread=None, parameters=None, groups=None, geometric=True,
-               offsets=None):
+               offsets=None, errors=(5e-4, 5e-4)):
     """config.yaml + data.csv of a simulated calibration; returns (config path, truth ParameterSet, values).
-    offsets: true joint offsets (rad) set after the random placement errors."""
+    offsets: true joint offsets (rad) set after the random placement errors (bounded by `errors`: m, rad)."""
     robot = load_example("ur5")
-    truth = truth_params(robot, rng, compliance, geometric, offsets)
+    truth = truth_params(robot, rng, compliance, geometric, offsets, errors)
     values = random_configurations(robot, JOINTS, n, rng)
     if spread is not None:       # shrink some joints' ranges: weakly seen directions
         for k, s in spread.items():
