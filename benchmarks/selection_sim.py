@@ -83,12 +83,12 @@ def draw_truth(sim: SimRobot, config, csv, rng: np.random.Generator, scenario: s
     loads = joint_loads(s.robot, sim.joints, s.problem.values)
     if scenario in ("compliance", "all"):
         for j in sim.compliant:      # 3-10 mrad of sag at the joint's largest gravity moment
-            values[f"{j}.compliance"] = rng.uniform(3e-3, 10e-3) / max(loads[j], 1e-3)
+            values[f"{j}.compliance"] = rng.uniform(3e-3, 10e-3) / max(loads.along[j], 1e-3)
     effects = {"bending": 0.0, "eccentricity": {}}
     if scenario == "all":
         for j in sim.play:
             values[f"{j}.backlash"] = -rng.uniform(3e-3, 8e-3)
-        effects["bending"] = rng.uniform(2e-3, 4e-3) / max(loads[sim.bending], 1e-3)   # m per N m
+        effects["bending"] = rng.uniform(2e-3, 4e-3) / max(loads.along[sim.bending], 1e-3)   # m per N m
         effects["eccentricity"] = {j: (rng.uniform(2e-3, 4e-3), rng.uniform(-np.pi, np.pi)) for j in sim.eccentric}
     return {"values": values, "effects": effects}
 
