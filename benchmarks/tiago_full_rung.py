@@ -20,6 +20,8 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+import numpy as np
+
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 from robocal import calibrate  # noqa: E402
@@ -51,7 +53,17 @@ def scores(parameters, setup, result) -> dict:
     refit = score_session(fitted, setup_for_data(CONFIG, VALIDATION, parameters).problem, options=setup.options)
     return {"free": len(result.params.free_names), "status": result.status, "train": mc.rms(train),
             "loo": mc.rms(loo), "kept": kept[block].point_stats(0).rmse_norm,
-            "refit": refit[block].point_stats(0).rmse_norm}
+            "refit": refit[block].point_stats(0).rmse_norm,
+            "kept_norms": 1e3 * np.linalg.norm(kept[block].points()[:, 0], axis=1),      # mm
+            "refit_norms": 1e3 * np.linalg.norm(refit[block].points()[:, 0], axis=1)}
+
+
+def paired_difference(a: np.ndarray, b: np.ndarray) -> tuple[float, float]:
+    """RMS(a) - RMS(b) of two models' error norms on the same postures, and its standard error: the delta
+    method on the per-posture terms a_i^2 / (2 RMS(a)) - b_i^2 / (2 RMS(b)), which keeps the pairing."""
+    ra, rb = np.sqrt(np.mean(a ** 2)), np.sqrt(np.mean(b ** 2))
+    g = a ** 2 / (2 * ra) - b ** 2 / (2 * rb)
+    return float(ra - rb), float(np.std(g, ddof=1) / np.sqrt(len(g)))
 
 
 def fit(parameters=None, regularisation="none", strength=None):
@@ -80,10 +92,16 @@ def main() -> None:
              fit(regularisation="auto" if figure.strength is not None else "none", strength=figure.strength))]
     print("| model | free | status | train | closed-form LOO | validation, tracker kept | validation, tracker refit |")
     print("|---|---|---|---|---|---|---|")
-    for label, (parameters, setup, result) in rows:
-        f = scores(parameters, setup, result)
+    figures = [scores(*fitted) for _, fitted in rows]
+    for (label, (parameters, setup, result)), f in zip(rows, figures):
         print(f"| {label} | {f['free']} | {f['status']} | {f['train']:.2f} | {f['loo']:.2f} | {f['kept']:.2f} | "
               f"{f['refit']:.2f} |")
+    figaroh = figures[2]
+    print(f"\nagainst FIGAROH's 30 parameters on the {len(figaroh['kept_norms'])} validation postures, paired "
+          "(RMS difference +- its standard error, mm; negative: better than FIGAROH's):")
+    for (label, _), f in zip(rows, figures):
+        kept, refit = (paired_difference(f[k], figaroh[k]) for k in ("kept_norms", "refit_norms"))
+        print(f"  {label}: tracker kept {kept[0]:+.2f} +- {kept[1]:.2f}, refit {refit[0]:+.2f} +- {refit[1]:.2f}")
     first, second = rows[0][1][2], rows[1][1][2]
     print("\nselection at the registered nominal adds: "
           + ", ".join(sorted(set(second.params.free_names) - set(first.params.free_names))))
