@@ -1,4 +1,4 @@
-"""The default prior's strength, chosen from the data by the evidence of the linearised Gaussian model.
+"""The default prior's strengths (one per scale family), chosen by the evidence of the linearised Gaussian model.
 
 Model (docs/validation.md): about the registered nominal model the scaled residual is r ~ J d + e, with
 e ~ N(0, s2 I) (s2: the measured noise, in units of the stated sigmas) and each robot parameter's error
