@@ -72,22 +72,18 @@ def fit(parameters=None, regularisation="none", strength=None):
     return parameters, setup, calibrate(setup.problem, setup.options)
 
 
-def common_strength() -> float:
-    """The evidence's best common strength (what the default prior used before one strength per family)."""
-    return fit(regularisation="auto")[2].default_prior.strength
-
-
 def main() -> None:
     start = setup_for_data(CONFIG)
     reg = register_nominal(start.problem, start.options).values
     figure = rung_by_postures(lambda: setup_for_data(CONFIG).problem, start.options, STRENGTH_GRID)
+    default = fit(regularisation="auto")
+    common = default[2].default_prior.strength     # the evidence's best common strength: the default before
     rows = [("robocal, selection at the config's start (published full_bl)", fit()),
             ("robocal, selection at the registered nominal", fit({"initial": reg})),
             ("FIGAROH 1.0.2's 30 parameters, fitted by robocal",
              fit({"fix": ["*"], "free": ["base.*", "BL.point.*"] + FIGAROH_SET})),
-            ("robocal default prior (strength per scale family by the evidence)", fit(regularisation="auto")),
-            ("the same, one common strength (before the per-family rule)",
-             fit(regularisation="auto", strength=common_strength())),
+            ("robocal default prior (strength per scale family by the evidence)", default),
+            ("the same, one common strength (before the per-family rule)", fit(regularisation="auto", strength=common)),
             (f"selection rule: strength {figure.strength} (closed-form LOO by posture)",
              fit(regularisation="auto" if figure.strength is not None else "none", strength=figure.strength))]
     print("| model | free | status | train | closed-form LOO | validation, tracker kept | validation, tracker refit |")
@@ -107,7 +103,7 @@ def main() -> None:
           + ", ".join(sorted(set(second.params.free_names) - set(first.params.free_names))))
     print("the rule's strength grid (closed-form LOO by posture, mm): "
           + ", ".join(f"{s}: {v:.2f}" for s, v, _ in figure.per_strength))
-    prior = rows[3][1][2].default_prior
+    prior = default[2].default_prior
     print(f"default prior of the evidence: common strength {prior.strength:.3g}; by scale family "
           + ", ".join(f"{f} {v:.3g}" for f, v in prior.by_family.items()))
 

@@ -58,13 +58,6 @@ class DefaultPrior:
                 "noise_over_stated_sigma": self.noise_ratio, "method": self.method,
                 "parameters_given_prior": self.names, "loose_at_registered_nominal": self.loose, "reason": self.reason}
 
-    def sigma_text(self) -> str:
-        """"sigma = 0.5 x physical scale", or per family where they differ."""
-        values = set(self.by_family.values())
-        if len(values) <= 1:
-            return f"sigma = {self.strength:.3g} x physical scale"
-        return "sigma = " + ", ".join(f"{v:.3g} x physical scale ({f}s)" for f, v in self.by_family.items())
-
     def describe(self) -> str:
         if self.mode == "none":
             return "Default prior: none (solver.regularisation: none)."
@@ -72,10 +65,17 @@ class DefaultPrior:
             return f"Default prior: not needed ({self.reason})."
         if self.noise_ratio is None:      # a given strength: no evidence was computed
             return (f"Default prior: given to the {len(self.names)} robot parameters without a prior of their own, "
-                    f"{self.sigma_text()} ({self.reason}).")
+                    f"{sigma_text(self.strength, self.by_family)} ({self.reason}).")
         return (f"Default prior: given to the {len(self.names)} robot parameters without a prior of their own, "
-                f"{self.sigma_text()} (chosen by the {self.method}; measured noise "
+                f"{sigma_text(self.strength, self.by_family)} (chosen by the {self.method}; measured noise "
                 f"{self.noise_ratio:.3g} x stated sigma); {self.reason}.")
+
+
+def sigma_text(strength: float, by_family: dict[str, float]) -> str:
+    """"sigma = 0.5 x physical scale", or one per scale family where they differ (the summary and the report)."""
+    if len(set(by_family.values())) <= 1:
+        return f"sigma = {strength:.3g} x physical scale"
+    return "sigma = " + ", ".join(f"{v:.3g} x physical scale ({f}s)" for f, v in by_family.items())
 
 
 def data_rows(problem, n_rows: int) -> np.ndarray:
@@ -273,9 +273,10 @@ def apply_default_prior(problem, registered: Registered, scales, rtol: float,
     # every robot parameter gets it, also those the data cannot separate at all: fixing them at nominal
     # leaves the kept ones to absorb their true errors only to first order, and the fit stalls (docs/validation.md)
     names = [n for n in free if n in candidates]
+    families = scales.families(names)
     # a family none of whose parameters the selection kept (all confounded) takes the common strength
-    by_family = {f: evd.by_family.get(f, evd.strength) for f in dict.fromkeys(scales.families(names))}
-    for n, f in zip(names, scales.families(names)):
+    by_family = {f: evd.by_family.get(f, evd.strength) for f in dict.fromkeys(families)}
+    for n, f in zip(names, families):
         params[n].prior_sigma, params[n].prior_mean = by_family[f] * scales.scale[n], params[n].value
     return DefaultPrior("auto", True, evd.strength, noise, names, loose, by_family=by_family,
                         reason=f"applied because, at the registered nominal model and the stated sigmas, the data "

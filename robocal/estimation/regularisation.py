@@ -78,10 +78,10 @@ def profiled_log_evidence(d2: np.ndarray, z2: np.ndarray, rest: float, n_rest: i
 
 def family_strengths(d: np.ndarray, Vt: np.ndarray, z: np.ndarray, families: np.ndarray, start: float,
                      strengths: np.ndarray, rest: float, n_rest: int, scale0: float
-                     ) -> tuple[dict[str, float], float, float]:
+                     ) -> tuple[dict[str, float], float]:
     """One strength per scale family, maximising the evidence jointly: from the best common strength, each family
     in turn moves to its best grid value with the others held, until a sweep changes nothing (docs/validation.md,
-    "One strength per scale family"). Returns ({family: strength}, its log evidence, its noise variance).
+    "One strength per scale family"). Returns ({family: strength}, the noise variance that goes with it).
 
     From the unit-strength columns' SVD A = U diag(d) Vt and z = U^T y: per-column strengths L scale them to
     A L = U C with C = diag(d) Vt L, whose SVD C = P S Q^T gives the singular values S and the projections P^T z;
@@ -96,7 +96,7 @@ def family_strengths(d: np.ndarray, Vt: np.ndarray, z: np.ndarray, families: np.
         return profiled_log_evidence(S ** 2, z2, rest, n_rest, scale0)
 
     current = {f: float(start) for f in order}
-    best_value, best_noise = -np.inf, np.nan
+    noise2 = np.nan
     for _ in range(20):
         moved = False
         for f in order:
@@ -109,10 +109,10 @@ def family_strengths(d: np.ndarray, Vt: np.ndarray, z: np.ndarray, families: np.
             if values[here] >= values[i] - 1e-9:
                 i = here                                           # a tie keeps the current value
             moved |= i != here
-            current[f], best_value, best_noise = float(strengths[i]), float(values[i]), float(noise[i])
+            current[f], noise2 = float(strengths[i]), float(noise[i])
         if not moved:
             break
-    return current, best_value, best_noise
+    return current, noise2
 
 
 def choose_strength(J: np.ndarray, r: np.ndarray, scales: np.ndarray, strengths=STRENGTHS,
@@ -142,7 +142,7 @@ def choose_strength(J: np.ndarray, r: np.ndarray, scales: np.ndarray, strengths=
     by_family = {f: float(lam[i]) for f in dict.fromkeys(fam)}
     noise2 = float(noise[i])
     if len(by_family) > 1 and k:
-        by_family, _, noise2 = family_strengths(d, Vt, z, fam, lam[i], lam, rest, n_rest, scale0)
+        by_family, noise2 = family_strengths(d, Vt, z, fam, lam[i], lam, rest, n_rest, scale0)
     stderr = np.full(len(scales), np.inf)
     big = d > RANK_TOL * (d[0] if k else 1.0)
     var = (Vt[big] ** 2 / d[big, None] ** 2).sum(0) * noise2 if k else np.zeros(0)

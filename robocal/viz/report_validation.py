@@ -5,6 +5,8 @@ from __future__ import annotations
 import html
 import json
 
+from robocal.estimation.registration import sigma_text
+
 SCALE = {"m": (1e3, "mm"), "rad": (1e3, "mrad"), "rad/(N m)": (1e3, "mrad/(N m)"), "m/N": (1e3, "mm/N")}
 
 
@@ -29,7 +31,8 @@ def refusal_section(result: dict) -> list[str]:
     if prior:
         if prior.get("applied"):
             text = (f"{len(prior['parameters_given_prior'])} robot parameters without a prior of their own got one of "
-                    f"sigma = {strength_text(prior)} x their physical scale, chosen by the "
+                    f"{sigma_text(prior['strength_in_physical_scales'], prior.get('strength_by_family') or {})}, "
+                    f"chosen by the "
                     f"{prior['method']}; {prior['reason']}.")
         else:
             text = f"Default prior {prior.get('mode')}: {prior.get('reason') or 'not applied'}."
@@ -39,14 +42,6 @@ def refusal_section(result: dict) -> list[str]:
         parts += ["<h2>Weak directions (data-only standard error against the threshold)</h2>",
                   bullets(ident["weak_directions"], "weak-directions")]
     return parts
-
-
-def strength_text(prior: dict) -> str:
-    """The prior's strength: one number, or one per scale family where they differ."""
-    by_family = prior.get("strength_by_family") or {}
-    if len(set(by_family.values())) > 1:
-        return ", ".join(f"{v:.3g} ({f}s)" for f, v in by_family.items())
-    return f"{prior['strength_in_physical_scales']:.3g}"
 
 
 def refusal_text(r: dict) -> str:
