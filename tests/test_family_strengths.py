@@ -96,3 +96,21 @@ def test_a_robot_built_to_tight_lengths_and_loose_angles_gets_a_strength_for_eac
     se = np.sqrt(np.diag(result.covariance))[[result.params.free_names.index(n) for n in names]]
     z = np.array([result.params[n].value - truth[n].value for n in names]) / se
     assert len(z) == 42 and np.max(np.abs(z)) < 4, np.round(z, 2)
+
+
+def test_the_evidence_criterion_scores_the_prior_calibrate_applies(tmp_path):
+    """model_criteria.nominal_evidence (the study's evidence criterion) gives each family its own strength as
+    calibrate's default prior does, on the same tight-lengths, loose-angles UR5: the angles' strength near their
+    drawn width, above the lengths', and an evidence no lower than at the common strength."""
+    from robocal.estimation import model_criteria as mc
+    from robocal.workflows.evaluate import setup_for_data
+    from validation_cases import write_case
+
+    cfg, _, _ = write_case(tmp_path, np.random.default_rng(8), n=30, errors=(1e-4, 5e-3),
+                           spread={"wrist_2_joint": 0.02, "wrist_3_joint": 0.02})
+    ev = mc.nominal_evidence(setup_for_data(cfg).problem)
+    common = mc.nominal_evidence(setup_for_data(cfg).problem, strengths=[ev.strength])   # one candidate: no search
+    assert set(ev.by_family) == {"length", "angle"}
+    assert ev.by_family["angle"] == pytest.approx(5e-3 / np.sqrt(3) / 0.01, rel=0.4)   # as in calibrate, above
+    assert ev.by_family["angle"] > 4 * ev.by_family["length"], ev.by_family
+    assert ev.log_evidence >= common.log_evidence - 1e-9

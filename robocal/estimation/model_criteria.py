@@ -14,7 +14,8 @@ each row is (the sample it belongs to, its block, its unit, its scale back to SI
 - `log_evidence(J, y, prior_sigma)`: the log marginal likelihood of the linear Gaussian model y = J d + e,
   d_j ~ N(0, prior_sigma_j^2) (inf: a flat prior, projected out), e ~ N(0, s2 I), maximised over s2.
   `nominal_evidence(problem, options)` is the evidence of a model about its registered nominal, with the
-  physically scaled prior on every robot parameter at the strength the evidence prefers.
+  physically scaled prior on every robot parameter at the strengths the evidence prefers (one per scale
+  family, as calibrate's default prior).
 
 Every error figure is the norm of a 3D point (mm) or orientation (mrad), as elsewhere in robocal.
 Robust losses are ignored (the criteria read the plain linearisation).
@@ -32,7 +33,7 @@ from robocal.estimation.cross_validation import RANGE_MARGIN, range_excess
 from robocal.estimation.physical_scale import physical_scales
 from robocal.estimation.prediction_errors import GROUP
 from robocal.estimation.problem import Problem
-from robocal.estimation.regularisation import RANK_TOL, STRENGTHS, project_out
+from robocal.estimation.regularisation import RANK_TOL, STRENGTHS, family_strengths, project_out
 from robocal.estimation.registration import register_nominal
 
 UNIT_TO_REPORT = {"length": 1e3, "angle": 1e3}     # SI -> mm, mrad (pixels stay px)
@@ -232,7 +233,8 @@ class ModelEvidence:
     log_evidence: float        # log p(y) of the linear Gaussian model, maximised over the noise level
     noise2: float              # its noise variance, in units of the stated sigma^2
     flat_rank: int             # dimensions projected out (flat-prior columns)
-    strength: float | None = None    # nominal_evidence: the prior strength (physical scales) that maximises it
+    strength: float | None = None    # nominal_evidence: the common prior strength (physical scales) that maximises it
+    by_family: dict | None = None    # nominal_evidence: the strength of each scale family, as calibrate's default prior
 
 
 def log_evidence(J: np.ndarray, y: np.ndarray, prior_sigma: np.ndarray, noise2: float | None = None) -> ModelEvidence:
@@ -270,9 +272,10 @@ def nominal_evidence(problem: Problem, options: CalibrationOptions | None = None
                      strengths=STRENGTHS) -> ModelEvidence:
     """The evidence of `problem`'s model about its registered nominal: every free robot parameter with the
     physically scaled prior (robocal.estimation.physical_scale) centred on its current value (the nominal, for
-    a problem not yet fitted) at the strength of `strengths` that maximises it (a parameter with its own prior
-    keeps that sigma); the registration frames,
-    fitted first with the robot at those values, flat. The problem's parameters are left as they were."""
+    a problem not yet fitted), at the strengths that maximise it, one per scale family as calibrate's default
+    prior chooses them (docs/validation.md, "One strength per scale family"); a parameter with its own prior
+    keeps that sigma; the registration frames, fitted first with the robot at those values, flat. The
+    problem's parameters are left as they were."""
     opt = options or CalibrationOptions()
     scales = physical_scales(problem, opt.determined_length, opt.determined_angle)
     params = problem.params
@@ -293,4 +296,31 @@ def nominal_evidence(problem: Problem, options: CalibrationOptions | None = None
         ev = log_evidence(J, y, np.where(np.isfinite(given), given, lam * base))
         if best is None or ev.log_evidence > best.log_evidence:
             best = ModelEvidence(ev.log_evidence, ev.noise2, ev.flat_rank, float(lam))
-    return best
+    own = np.isfinite(given)
+    families = np.array(["user prior" if o else f for f, o in zip(scales.families(lin.names), own)], dtype=object)
+    scaled = own | np.isfinite(base)
+    if len(set(families[scaled & ~own])) < 2:
+        return best
+    by_family = family_evidence_strengths(J, y, np.where(own, given, base), scaled, families, best.strength,
+                                          strengths)
+    lam = np.array([by_family.get(f, 1.0) for f in families])
+    ev = log_evidence(J, y, np.where(own, given, lam * base))
+    if ev.log_evidence <= best.log_evidence:        # the common strength is already the best (a tie keeps it)
+        return ModelEvidence(best.log_evidence, best.noise2, best.flat_rank, best.strength,
+                             {f: best.strength for f in families[scaled & ~own]})
+    return ModelEvidence(ev.log_evidence, ev.noise2, ev.flat_rank, best.strength,
+                         {f: v for f, v in by_family.items() if f != "user prior"})
+
+
+def family_evidence_strengths(J: np.ndarray, y: np.ndarray, sigma: np.ndarray, scaled: np.ndarray,
+                              families: np.ndarray, start: float, strengths) -> dict[str, float]:
+    """regularisation.family_strengths on plain data rows: the unscaled columns projected out, the columns with
+    a user's prior ("user prior") held at their sigma."""
+    rank_flat, (yp, A) = project_out(J[:, ~scaled], np.asarray(y, float), J[:, scaled] * sigma[scaled])
+    U, d, Vt = np.linalg.svd(A, full_matrices=False)
+    z = U.T @ yp
+    m_eff = len(yp) - rank_flat
+    by_family, _ = family_strengths(d, Vt, z, families[scaled], start, np.asarray(strengths, float),
+                                    max(float(yp @ yp - z @ z), 0.0), max(m_eff - len(d), 0),
+                                    max(float(yp @ yp) / max(m_eff, 1), 1e-300), fixed=("user prior",))
+    return by_family

@@ -77,7 +77,7 @@ def profiled_log_evidence(d2: np.ndarray, z2: np.ndarray, rest: float, n_rest: i
 
 
 def family_strengths(d: np.ndarray, Vt: np.ndarray, z: np.ndarray, families: np.ndarray, start: float,
-                     strengths: np.ndarray, rest: float, n_rest: int, scale0: float
+                     strengths: np.ndarray, rest: float, n_rest: int, scale0: float, fixed=()
                      ) -> tuple[dict[str, float], float]:
     """One strength per scale family, maximising the evidence jointly: from the best common strength, each family
     in turn moves to its best grid value with the others held, until a sweep changes nothing (docs/validation.md,
@@ -85,7 +85,8 @@ def family_strengths(d: np.ndarray, Vt: np.ndarray, z: np.ndarray, families: np.
 
     From the unit-strength columns' SVD A = U diag(d) Vt and z = U^T y: per-column strengths L scale them to
     A L = U C with C = diag(d) Vt L, whose SVD C = P S Q^T gives the singular values S and the projections P^T z;
-    the part of the data outside the columns' span (rest) does not depend on L."""
+    the part of the data outside the columns' span (rest) does not depend on L. A family in `fixed` (columns
+    already scaled by a prior the user gave) keeps strength 1."""
     strengths = np.asarray(strengths, float)
     order = list(dict.fromkeys(families))
     DV = d[:, None] * Vt
@@ -95,11 +96,11 @@ def family_strengths(d: np.ndarray, Vt: np.ndarray, z: np.ndarray, families: np.
         z2 = np.einsum("cki,k->ci", P, z) ** 2
         return profiled_log_evidence(S ** 2, z2, rest, n_rest, scale0)
 
-    current = {f: float(start) for f in order}
+    current = {f: 1.0 if f in fixed else float(start) for f in order}
     noise2 = np.nan
     for _ in range(20):
         moved = False
-        for f in order:
+        for f in (f for f in order if f not in fixed):
             lam = np.array([current[h] for h in families])
             cands = np.repeat(lam[None, :], len(strengths), axis=0)
             cands[:, families == f] = strengths[:, None]
