@@ -84,32 +84,40 @@ def family_strengths(d: np.ndarray, Vt: np.ndarray, z: np.ndarray, families: np.
     "One strength per scale family"). Returns ({family: strength}, the noise variance that goes with it).
 
     From the unit-strength columns' SVD A = U diag(d) Vt and z = U^T y: per-column strengths L scale them to
-    A L = U C with C = diag(d) Vt L, whose SVD C = P S Q^T gives the singular values S and the projections P^T z;
+    A L = U C with C = diag(d) Vt L, whose SVD C = P S Q^T gives the singular values S and the projections P^T z
+    (computed as the eigenvectors of C C^T);
     the part of the data outside the columns' span (rest) does not depend on L. A family in `fixed` (columns
     already scaled by a prior the user gave) keeps strength 1."""
     strengths = np.asarray(strengths, float)
     order = list(dict.fromkeys(families))
     DV = d[:, None] * Vt
+    # C C^T = sum over families of lam_f^2 B_f, B_f = D Vt_f Vt_f^T D: its eigenvalues are S^2 and its
+    # eigenvectors P (a symmetric k x k problem per candidate, cheaper than the SVD of C)
+    gram = {f: DV[:, families == f] @ DV[:, families == f].T for f in order}
 
-    def evaluate(candidates: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        P, S, _ = np.linalg.svd(DV[None] * candidates[:, None, :])
+    def evaluate(f: str) -> tuple[np.ndarray, np.ndarray]:
+        held = sum(current[h] ** 2 * gram[h] for h in order if h != f)
+        S2, P = np.linalg.eigh(held + strengths[:, None, None] ** 2 * gram[f])
         z2 = np.einsum("cki,k->ci", P, z) ** 2
-        return profiled_log_evidence(S ** 2, z2, rest, n_rest, scale0)
+        return profiled_log_evidence(np.clip(S2, 0.0, None), z2, rest, n_rest, scale0)
 
     current = {f: 1.0 if f in fixed else float(start) for f in order}
     noise2 = np.nan
+    searched = {f: False for f in order}     # f's best is known given the others' current values
     for _ in range(20):
         moved = False
         for f in (f for f in order if f not in fixed):
-            lam = np.array([current[h] for h in families])
-            cands = np.repeat(lam[None, :], len(strengths), axis=0)
-            cands[:, families == f] = strengths[:, None]
-            values, noise = evaluate(cands)
+            if searched[f]:
+                continue                     # nothing else moved since f was searched: it would stay
+            values, noise = evaluate(f)
             here = int(np.argmin(np.abs(np.log(strengths) - np.log(current[f]))))
             i = int(np.argmax(values))
             if values[here] >= values[i] - 1e-9:
                 i = here                                           # a tie keeps the current value
-            moved |= i != here
+            if i != here:
+                moved = True
+                searched = dict.fromkeys(order, False)
+            searched[f] = True
             current[f], noise2 = float(strengths[i]), float(noise[i])
         if not moved:
             break
