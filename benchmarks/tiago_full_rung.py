@@ -1,7 +1,7 @@
 """Why robocal's full model on point BL predicted worse than FIGAROH 1.0.2's full_params, and the full rung the
 selection rule gives (issue 32, part 2; docs/tiago_mocap.md "The full rung against FIGAROH").
 
-    OMP_NUM_THREADS=1 python benchmarks/tiago_full_rung.py
+    OMP_NUM_THREADS=1 python benchmarks/tiago_full_rung.py [--reverse]
 
 Every model is examples/tiago_mocap/full_bl.yaml (base frame, BL's position on the tool, every joint's offset and
 6D placement error), fitted on the training session; BL's norm RMS (mm) on training, its closed-form
@@ -14,9 +14,14 @@ tracker frame refitted there ("refit"):
 - the default prior (one strength per scale family) and, for comparison, its best common strength;
 - the selection rule's full rung (docs/validation.md): the default prior at the strength of the grid with the
   lowest closed-form leave-one-out error by posture.
+
+--reverse fits every model on the validation session (62 postures) and scores it on the training session (37):
+the second split of the two shipped sessions. FIGAROH's set is the same there: its selection is structural (random
+postures within the joint limits), not made on the session's data.
 """
 from __future__ import annotations
 
+import argparse
 import sys
 from pathlib import Path
 
@@ -33,6 +38,8 @@ from robocal.workflows import setup_for_data  # noqa: E402
 
 CONFIG = ROOT / "examples" / "tiago_mocap" / "full_bl.yaml"
 VALIDATION = ROOT / "examples" / "tiago_mocap" / "data" / "qualisys_2021-11-26_static_postures.csv"
+TRAINING = ROOT / "examples" / "tiago_mocap" / "data" / "qualisys_2021-11-30_static_postures.csv"   # full_bl's csv
+FIT, SCORE = TRAINING, VALIDATION      # --reverse swaps them
 # FIGAROH 1.0.2's full_params set on this data (Linux), in robocal's names: d_p* -> t*, d_phix/y -> rx/ry,
 # d_phiz (the rotation about a joint's own z axis) -> offset; its base (6) and marker (3) are base.* and BL.point.*
 FIGAROH_SET = ["arm_1_joint.ry", "arm_2_joint.tx", "arm_2_joint.rx", "arm_2_joint.offset", "arm_3_joint.tx",
@@ -49,8 +56,8 @@ def scores(parameters, setup, result) -> dict:
     _, train = mc.norms(lin, lin.r[lin.data] / lin.scale[lin.data])
     _, loo = mc.held_out_norms(setup.problem)
     fitted = setup.problem.params
-    kept = score_session(fitted, setup_for_data(CONFIG, VALIDATION, parameters).problem, per_session=())
-    refit = score_session(fitted, setup_for_data(CONFIG, VALIDATION, parameters).problem, options=setup.options)
+    kept = score_session(fitted, setup_for_data(CONFIG, SCORE, parameters).problem, per_session=())
+    refit = score_session(fitted, setup_for_data(CONFIG, SCORE, parameters).problem, options=setup.options)
     return {"free": len(result.params.free_names), "status": result.status, "train": mc.rms(train),
             "loo": mc.rms(loo), "kept": kept[block].point_stats(0).rmse_norm,
             "refit": refit[block].point_stats(0).rmse_norm,
@@ -67,15 +74,21 @@ def paired_difference(a: np.ndarray, b: np.ndarray) -> tuple[float, float]:
 
 
 def fit(parameters=None, regularisation="none", strength=None):
-    setup = setup_for_data(CONFIG, parameters=parameters)
+    setup = setup_for_data(CONFIG, FIT, parameters)
     setup.options.regularisation, setup.options.prior_strength = regularisation, strength
     return parameters, setup, calibrate(setup.problem, setup.options)
 
 
 def main() -> None:
-    start = setup_for_data(CONFIG)
+    global FIT, SCORE
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--reverse", action="store_true", help="fit on the validation session, score on training")
+    if ap.parse_args().reverse:
+        FIT, SCORE = SCORE, FIT
+    print(f"fitted on {FIT.name}, scored on {SCORE.name} (point BL, mm)")
+    start = setup_for_data(CONFIG, FIT)
     reg = register_nominal(start.problem, start.options).values
-    figure = rung_by_postures(lambda: setup_for_data(CONFIG).problem, start.options, STRENGTH_GRID)
+    figure = rung_by_postures(lambda: setup_for_data(CONFIG, FIT).problem, start.options, STRENGTH_GRID)
     default = fit(regularisation="auto")
     common = default[2].default_prior.strength     # the evidence's best common strength: the default before
     rows = [("robocal, selection at the config's start (published full_bl)", fit()),
@@ -86,14 +99,15 @@ def main() -> None:
             ("the same, one common strength (before the per-family rule)", fit(regularisation="auto", strength=common)),
             (f"selection rule: strength {figure.strength} (closed-form LOO by posture)",
              fit(regularisation="auto" if figure.strength is not None else "none", strength=figure.strength))]
-    print("| model | free | status | train | closed-form LOO | validation, tracker kept | validation, tracker refit |")
+    print("| model | free | status | fitted session | closed-form LOO | other session, tracker kept | "
+          "other session, tracker refit |")
     print("|---|---|---|---|---|---|---|")
     figures = [scores(*fitted) for _, fitted in rows]
     for (label, (parameters, setup, result)), f in zip(rows, figures):
         print(f"| {label} | {f['free']} | {f['status']} | {f['train']:.2f} | {f['loo']:.2f} | {f['kept']:.2f} | "
               f"{f['refit']:.2f} |")
     figaroh = figures[2]
-    print(f"\nagainst FIGAROH's 30 parameters on the {len(figaroh['kept_norms'])} validation postures, paired "
+    print(f"\nagainst FIGAROH's 30 parameters on the {len(figaroh['kept_norms'])} postures of the other session, paired "
           "(RMS difference +- its standard error, mm; negative: better than FIGAROH's):")
     for (label, _), f in zip(rows, figures):
         kept, refit = (paired_difference(f[k], figaroh[k]) for k in ("kept_norms", "refit_norms"))
@@ -104,6 +118,9 @@ def main() -> None:
     print("the rule's strength grid (closed-form LOO by posture, mm): "
           + ", ".join(f"{s}: {v:.2f}" for s, v, _ in figure.per_strength))
     prior = default[2].default_prior
+    if not prior.applied:
+        print(f"default prior not applied: {prior.reason} (its rows are the fit without a prior)")
+        return
     print(f"default prior of the evidence: common strength {prior.strength:.3g}; by scale family "
           + ", ".join(f"{f} {v:.3g}" for f, v in prior.by_family.items()))
 
