@@ -261,15 +261,17 @@ def apply_default_prior(problem, registered: Registered, scales, rtol: float,
     sel = select_base_parameters(J, free, rtol)
     kept = [free[j] for j in sel.independent]
     sc = np.array([scales.scale[n] if n in candidates else np.inf for n in kept])
-    evd = choose_strength(J[:, sel.independent], r, sc, n_rows=n_rows, families=scales.families(kept))
+    evd = choose_strength(J[:, sel.independent], r, sc, n_rows=n_rows)
     # looseness is a property of the design: judged at the stated sigmas, not at the measured noise, which
-    # a model far from the data (a poor nominal, a wrong model) inflates
+    # a model far from the data (a poor nominal, a wrong model) inflates; the data-only standard errors at
+    # the stated sigmas do not depend on the strengths, so the common strength's evidence decides it
     at_stated = evd.stderr / np.sqrt(evd.noise2) if evd.noise2 > 0 else evd.stderr
     loose = [n for n, se in zip(kept, at_stated) if n in candidates and se > 1.0]
-    noise = float(np.sqrt(evd.noise2))
     if not loose:
-        return DefaultPrior("auto", False, None, noise,
+        return DefaultPrior("auto", False, None, float(np.sqrt(evd.noise2)),
                             reason="the data determine every kept robot parameter within its physical scale")
+    evd = choose_strength(J[:, sel.independent], r, sc, n_rows=n_rows, families=scales.families(kept))
+    noise = float(np.sqrt(evd.noise2))
     # every robot parameter gets it, also those the data cannot separate at all: fixing them at nominal
     # leaves the kept ones to absorb their true errors only to first order, and the fit stalls (docs/validation.md)
     names = [n for n in free if n in candidates]

@@ -50,29 +50,38 @@ def profiled_log_evidence(d2: np.ndarray, z2: np.ndarray, rest: float, n_rest: i
     """For each candidate prior (a row of d2: the squared singular values of the prior-scaled columns; z2: the
     squared projections of the data on their left singular vectors), the log evidence maximised over the noise
     variance s2, and that s2. rest: the data's squared norm outside those singular vectors, over n_rest rows."""
-    def neg_log_evidence(log_s2: np.ndarray) -> np.ndarray:
-        """Over a (candidates, points) array of log s2."""
-        s2 = np.exp(log_s2)
-        v = s2[..., None] + d2[:, None, :]
-        return 0.5 * (np.sum(z2[:, None, :] / v, axis=-1) + np.sum(np.log(v), axis=-1)
-                      + (rest / s2 if n_rest else 0.0) + n_rest * log_s2)
+    rest = rest if n_rest else 0.0
 
-    # each candidate's best log s2: the best of a grid one e-fold apart over the bracket, then a golden-section
-    # search within a step of it to 1e-7, for every candidate at once
+    def neg_log_evidence(t: np.ndarray) -> np.ndarray:
+        """Over a (candidates, points) array of t = log s2."""
+        v = np.exp(t)[..., None] + d2[:, None, :]
+        return 0.5 * (np.sum(z2[:, None, :] / v, axis=-1) + np.sum(np.log(v), axis=-1) + rest * np.exp(-t)
+                      + n_rest * t)
+
+    def slope_and_curvature(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """d/dt and d2/dt2 of neg_log_evidence at one t per candidate (a = s2 / v, q = z2 / v)."""
+        s2 = np.exp(t)
+        a = s2[:, None] / (s2[:, None] + d2)
+        q = z2 * a / s2[:, None]
+        return (0.5 * (np.sum(a - q * a, axis=1) - rest / s2 + n_rest),
+                0.5 * (np.sum(q * a * (2 * a - 1) + a - a * a, axis=1) + rest / s2))
+
+    # each candidate's best t: the best of a grid one e-fold apart over the bracket, then Newton's method kept
+    # inside a bracket a step either side of it (bisection where a step leaves it), for every candidate at once
     grid = np.log(scale0) + np.arange(-30.0, 5.01, 1.0)
-    best = grid[np.argmin(neg_log_evidence(np.broadcast_to(grid, (len(d2), len(grid)))), axis=1)]
-    lo, hi = np.maximum(best - 1.0, grid[0]), np.minimum(best + 1.0, grid[-1])
-    ratio = (np.sqrt(5.0) - 1.0) / 2.0
-    a, b = hi - ratio * (hi - lo), lo + ratio * (hi - lo)
-    fa, fb = neg_log_evidence(a[:, None])[:, 0], neg_log_evidence(b[:, None])[:, 0]
-    while np.max(hi - lo) > 1e-7:
-        left = fa < fb                       # the minimum lies in [lo, b], else in [a, hi]
-        lo, hi = np.where(left, lo, a), np.where(left, b, hi)
-        x = np.where(left, hi - ratio * (hi - lo), lo + ratio * (hi - lo))     # the one new interior point
-        fx = neg_log_evidence(x[:, None])[:, 0]
-        a, fa, b, fb = (np.where(left, x, b), np.where(left, fx, fb),
-                        np.where(left, a, x), np.where(left, fa, fx))
-    t = 0.5 * (lo + hi)
+    t = grid[np.argmin(neg_log_evidence(np.broadcast_to(grid, (len(d2), len(grid)))), axis=1)]
+    lo, hi = np.maximum(t - 1.0, grid[0]), np.minimum(t + 1.0, grid[-1])
+    for _ in range(100):
+        g, h = slope_and_curvature(t)
+        lo, hi = np.where(g < 0, t, lo), np.where(g > 0, t, hi)    # the minimum lies where the slope turns +
+        with np.errstate(divide="ignore", invalid="ignore"):
+            step = np.where(h > 0, -g / h, np.nan)
+        new = t + step
+        new = np.where(np.isfinite(new) & (new > lo) & (new < hi), new, 0.5 * (lo + hi))
+        done = np.abs(new - t) < 1e-10
+        t = new
+        if np.all(done):
+            break
     return -neg_log_evidence(t[:, None])[:, 0], np.exp(t)
 
 
