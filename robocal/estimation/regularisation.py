@@ -77,7 +77,7 @@ def profiled_log_evidence(d2: np.ndarray, z2: np.ndarray, rest: float, n_rest: i
         with np.errstate(divide="ignore", invalid="ignore"):
             step = np.where(h > 0, -g / h, np.nan)
         new = t + step
-        new = np.where(np.isfinite(new) & (new > lo) & (new < hi), new, 0.5 * (lo + hi))
+        new = np.where(np.isfinite(new) & (new >= lo) & (new <= hi), new, 0.5 * (lo + hi))   # t itself may be an end
         done = np.abs(new - t) < 1e-10
         t = new
         if np.all(done):
