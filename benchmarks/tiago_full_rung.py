@@ -31,7 +31,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 from robocal import calibrate  # noqa: E402
 from robocal.estimation import model_criteria as mc  # noqa: E402
-from robocal.estimation.model_selection import STRENGTH_GRID, rung_by_postures  # noqa: E402
+from strength_rule import STRENGTH_GRID, rung_by_postures  # noqa: E402
 from robocal.estimation.registration import register_nominal  # noqa: E402
 from robocal.estimation.session_holdout import score_session  # noqa: E402
 from robocal.workflows import setup_for_data  # noqa: E402

@@ -10,21 +10,19 @@ with two or more sessions, leave-one-session-out (each session predicted by the 
 others, its per-session frames registered there: robocal.estimation.cross_validation.cv_table on session folds);
 with one session, the closed-form leave-one-out by posture of each rung's linearised fit (`closed_form_cv`: no
 refits), each rung at the prior `calibrate` chooses for it. The study also tried choosing each rung's prior
-strength on a grid by the same figure (`rung_by_postures`, `rung_by_sessions` with `STRENGTH_GRID`): rejected by
-the TIAGo sessions (docs/validation.md), kept for the study's benchmarks.
+strength on a grid by the same figure: rejected by the TIAGo sessions (docs/validation.md); that rule lives
+with the study, in benchmarks/strength_rule.py.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
-from typing import Callable
+from dataclasses import dataclass, field
 
 import numpy as np
 
-from robocal.estimation.calibrate import CalibrationOptions, calibrate
 from robocal.estimation.cross_validation import CVTable
-from robocal.estimation.model_criteria import approximate_loo, held_out_norms, linearise, norms
+from robocal.estimation.model_criteria import approximate_loo, linearise, norms
 from robocal.estimation.problem import Problem
-from robocal.estimation.session_holdout import held_out_figure, leave_one_session_out, session_norms
+from robocal.estimation.session_holdout import held_out_figure
 
 EXTRA_KINDS = ("compliance", "backlash", "tilt")
 
@@ -98,58 +96,6 @@ def one_standard_error(rms: np.ndarray, stderr: np.ndarray) -> tuple[int, int]:
     return chosen, best
 
 
-# ---------------------------------------------------------------- held-out figure of a rung
-STRENGTH_GRID = (0.03, 0.1, 0.3, 1.0, 3.0, None)   # prior sigma in physical scales; None: no prior
-
-
-@dataclass
-class RungFigure:
-    rms: float                     # held-out RMS of the error norm (mm, or mrad) at the chosen strength
-    stderr: float                  # its standard error over the held-out points (delta method)
-    strength: float | None         # the prior strength chosen (None: no prior)
-    per_strength: list[tuple[float | None, float, float]]   # (strength, rms, stderr) of every strength tried
-    how: str                       # "closed-form leave-one-out by posture" | "leave-one-session-out"
-
-
-def _options(options: CalibrationOptions, strength: float | None) -> CalibrationOptions:
-    return replace(options, regularisation="none" if strength is None else "auto", prior_strength=strength)
-
-
-def _best(per: list[tuple[float | None, float, float]], how: str) -> RungFigure:
-    finite = [t for t in per if np.isfinite(t[1])]
-    s, r, e = min(finite, key=lambda t: t[1]) if finite else per[0]
-    return RungFigure(r, e, s, per, how)
-
-
-def rung_by_postures(make_problem: Callable[[], Problem], options: CalibrationOptions | None = None,
-                     strengths=STRENGTH_GRID) -> RungFigure:
-    """One session: for each prior strength, fit a fresh problem of the rung (`make_problem()`) and take the
-    closed-form leave-one-out error of every posture; the strength with the lowest RMS."""
-    opt = options or CalibrationOptions()
-    per = []
-    for strength in strengths:
-        problem = make_problem()
-        calibrate(problem, _options(opt, strength))
-        per.append((strength, *held_out_figure(held_out_norms(problem)[1])))
-    return _best(per, "closed-form leave-one-out by posture")
-
-
-def rung_by_sessions(make_sessions: Callable[[], list[Problem]], options: CalibrationOptions | None = None,
-                     strengths=STRENGTH_GRID, per_session=("base.*",),
-                     fit: Callable[[list[Problem], CalibrationOptions], object] | None = None) -> RungFigure:
-    """Two or more sessions: for each prior strength, leave-one-session-out over fresh problems of the rung, one
-    per session (`make_sessions()`), the frames matching `per_session` refitted on the held-out session; `fit`
-    (sessions, options) -> fitted ParameterSet, a joint fit, is needed for three sessions or more."""
-    opt = options or CalibrationOptions()
-    per = []
-    for strength in strengths:
-        o = _options(opt, strength)
-        joint = (lambda sessions: fit(sessions, o)) if fit is not None else None
-        errors = leave_one_session_out(make_sessions(), o, per_session, joint)
-        per.append((strength, *held_out_figure(session_norms(errors))))
-    return _best(per, "leave-one-session-out")
-
-
 def closed_form_cv(problem: Problem, folds: list[np.ndarray]) -> CVTable:
     """The closed-form leave-one-out of a fitted problem over `folds` (whole postures) as a CV table: held-out
     and training RMS of the error norm (mm for points; mrad of pose blocks as a second unit; px of image points)
@@ -169,10 +115,3 @@ def closed_form_cv(problem: Problem, folds: list[np.ndarray]) -> CVTable:
     unit = next(iter(figures))
     rms, se, tr = figures.pop(unit)
     return CVTable(unit, [], rms, se, tr, {u: {"rms": a, "stderr": b, "train": c} for u, (a, b, c) in figures.items()})
-
-
-def choose_rung(figures: list[RungFigure | None]) -> tuple[int, int]:
-    """(chosen, lowest): the one-standard-error rule over the rungs in ladder order (None: a rung not fitted)."""
-    rms = np.array([f.rms if f else np.nan for f in figures])
-    se = np.array([f.stderr if f else np.nan for f in figures])
-    return one_standard_error(rms, se)
