@@ -81,15 +81,30 @@ def test_cv_holds_out_images_and_scores_pixels(example, capsys):
     assert "(px)" in out and 0.35 < held_out < 0.6
 
 
-@pytest.mark.parametrize("command", ["simulate", "evaluate"])
-def test_commands_that_cannot_take_a_camera_block_say_so(example, tmp_path, command, capsys):
-    args = (["simulate", str(example), "-o", str(tmp_path / "sim.csv")] if command == "simulate" else
-            ["evaluate", str(tmp_path), str(tmp_path / "joints.csv"), "--config", str(example)])
-    (tmp_path / "result.json").write_text("{}")
-    assert main(args) == 2
+def test_simulate_cannot_take_a_camera_block_and_says_so(example, tmp_path, capsys):
+    # (robocal evaluate takes one with the new images' detections: tests/test_camera_evaluate.py)
+    assert main(["simulate", str(example), "-o", str(tmp_path / "sim.csv")]) == 2
     err = capsys.readouterr().err
-    assert f"robocal {command} does not take camera blocks" in err and "measurements[0].type" in err
+    assert "robocal simulate does not take camera blocks" in err and "measurements[0].type" in err
     assert not (tmp_path / "sim.csv").exists()
+
+
+def test_an_image_s_corners_are_not_repeated_postures_but_an_image_taken_twice_is(example):
+    """Every corner of an image shares its posture: the posture check tells corners apart by their id, so the
+    example has no repeats, and an image recorded again at the same joint readings repeats all its corners."""
+    from robocal.workflows.evaluate import setup_for_data
+    from robocal.workflows.posture_check import posture_counts
+    (count,) = posture_counts(setup_for_data(example))
+    assert count.repeated_rows == [] and count.copied_rows == [] and count.distinct_rows == 2 * 1080
+    joints = (example.parent / "joints.csv").read_text().splitlines()
+    again = "again," + joints[3].split(",", 1)[1]              # img03's readings under a new label
+    (example.parent / "joints.csv").write_text("\n".join(joints + [again]) + "\n")
+    det = (example.parent / "detections.csv").read_text().splitlines()
+    shifted = [line.replace("img03,", "again,", 1) for line in det if line.startswith("img03,")]
+    (example.parent / "detections.csv").write_text("\n".join(det + shifted) + "\n")
+    (count,) = posture_counts(setup_for_data(example))
+    # the same readings and the same pixels: each of the image's corners is a copy, counted once
+    assert len(count.copied_rows) == len(shifted) == 54 and count.distinct_rows == 2 * 1080
 
 
 def _block(**change):

@@ -136,6 +136,11 @@ class Residual(ABC):
     def term_samples(self, k: int) -> tuple[int, ...]:
         return (int(self.samples[k]),)
 
+    def term_feature(self, k: int) -> tuple:
+        """What term k measures beside its posture, when one posture gives several terms (a camera image: one
+        term per corner); terms of equal postures and features repeat each other (workflows/posture_check.py)."""
+        return ()
+
     def aux_parameters(self) -> list[Parameter]:
         return [Parameter(f"{self.name}.{a.suffix}", "auxiliary", self.name, i, value=a.value, vary=a.vary,
                           unit=a.unit) for i, a in enumerate(self.aux)]

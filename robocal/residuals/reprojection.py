@@ -89,6 +89,9 @@ class ReprojectionResidual(Residual):
     def column_kinds(cls, n_columns):
         return [""] * n_columns
 
+    def term_feature(self, k: int) -> tuple:
+        return (int(self.corners[k]),)          # an image gives one term per corner
+
     @property
     def pose_prefix(self) -> str:
         return f"{self.name}.{'target' if self.mount == 'eye_in_hand' else 'camera'}"

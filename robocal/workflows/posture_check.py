@@ -60,7 +60,7 @@ def posture_counts(setup) -> list[PostureCount]:
         seen: dict[tuple, list[np.ndarray]] = {}
         repeated, copied = [], []
         for k in range(res.n_terms):
-            key = tuple(int(labels[i]) for i in res.term_samples(k))
+            key = tuple(int(labels[i]) for i in res.term_samples(k)) + res.term_feature(k)
             measured = res.measurements[k] if len(res.measurements) == res.n_terms else np.zeros(0)
             if key in seen:
                 file, row = setup.sample_rows[res.term_samples(k)[0]]
