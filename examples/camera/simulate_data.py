@@ -4,6 +4,8 @@ output, so `robocal calibrate examples/camera/camera.yaml` runs without this scr
 The truth: a UR5 whose six joint zeros are off by 1-5 mrad (random signs), an eye-in-hand camera 1280 x 1024 with
 distortion on tool0, a 9 x 6 checkerboard of 30 mm squares fixed in front of the robot. 20 poses that keep the
 whole board in view (robocal.design.camera_candidates), every corner detected with 0.3 px Gaussian noise.
+A second session of 10 images (joints_session2.csv, detections_session2.csv) on the same robot and camera, the
+board moved 2 cm and turned 3 degrees: what `robocal evaluate ... --detections` scores (docs/camera.md).
 
 Run: OMP_NUM_THREADS=1 python examples/camera/simulate_data.py
 """
@@ -27,6 +29,8 @@ CAMERA_ON_TOOL0 = pin.SE3(pin.rpy.rpyToMatrix(0.02, -0.03, 0.01), np.array([0.04
 TARGET_IN_WORLD = pin.SE3(pin.rpy.rpyToMatrix(np.pi, 0, 0.3), np.array([0.45, 0.0, 0.0]))
 SEED_READING = np.array([0.0, -1.3, 1.6, -1.9, -1.57, 0.3])
 N_POSES, NOISE_PX = 20, 0.3
+TARGET_SESSION2 = pin.SE3(pin.rpy.rpyToMatrix(np.pi, 0, 0.3 + np.radians(3.0)), np.array([0.47, -0.01, 0.0]))
+N_POSES_SESSION2 = 10
 
 
 def main():
@@ -53,8 +57,26 @@ def main():
            "target_in_world": {"xyz": TARGET_IN_WORLD.translation.tolist(),
                                "rpy": pin.rpy.matrixToRpy(TARGET_IN_WORLD.rotation).tolist()},
            "intrinsics": dict(zip(CAMERA.names, K_TRUE.tolist())), "noise_px": NOISE_PX}
+    doc["target_in_world_session2"] = {"xyz": TARGET_SESSION2.translation.tolist(),
+                                       "rpy": pin.rpy.matrixToRpy(TARGET_SESSION2.rotation).tolist()}
     (HERE / "truth.json").write_text(json.dumps(doc, indent=2) + "\n")
     print(f"wrote {len(values)} images, {len(det.corners)} corners to {HERE}")
+    second_session(robot, truth, joints, target)
+
+
+def second_session(robot, truth, joints, target):
+    """The same robot and camera, the board moved: new viewpoints, new noise (its own random stream)."""
+    rng = np.random.default_rng(37)
+    values = camera_candidates(robot, joints, "camera", "eye_in_hand", TARGET_SESSION2, target, CAMERA, K_TRUE,
+                               N_POSES_SESSION2, rng, SEED_READING).values
+    labels = [f"s2img{i + 1:02d}" for i in range(len(values))]
+    det = simulate_detections(robot, truth, joints, values, "camera", "eye_in_hand", TARGET_SESSION2, target, CAMERA,
+                              K_TRUE, NOISE_PX, rng, labels)
+    rows = [",".join(["sample", *joints])] + [",".join([lab, *(f"{v:.17g}" for v in row)])
+                                                for lab, row in zip(labels, values)]
+    (HERE / "joints_session2.csv").write_text("\n".join(rows) + "\n")
+    write_detections(HERE / "detections_session2.csv", det)
+    print(f"wrote the second session: {len(values)} images, {len(det.corners)} corners")
 
 
 if __name__ == "__main__":

@@ -1,4 +1,5 @@
-"""`robocal evaluate RESULT_DIR DATA.csv`: score a calibrated model on another session (docs/validation.md);
+"""`robocal evaluate RESULT_DIR DATA.csv [--detections FILE]`: score a calibrated model on another session
+(docs/validation.md; a camera block's new images: docs/camera.md);
 `robocal evaluate IDENTIFY_DIR LOG.yaml`: predict a new log's torques with an identified dynamic model
 (robocal.cli.identify.evaluate_dynamics; docs/dynamics_tiago.md)."""
 from __future__ import annotations
@@ -19,13 +20,14 @@ def cmd_evaluate(args) -> int:
     if not config.is_file():
         raise InputError("no config.yaml in the result folder: pass --config CALIB.yaml (the config it was "
                          "fitted with)", source=str(config), field="--config")
-    report = evaluate_result(folder, Path(args.data).resolve(), config, args.refit)
+    report = evaluate_result(folder, Path(args.data).resolve(), config, args.refit,
+                             detections=detection_files(args.detections))
     if not args.quiet:
         print(f"Evaluation of {folder} on {report.data}")
     print("Refitted on this session: " + (", ".join(report.refitted) or "nothing (--refit PATTERN re-registers "
                                                                       "a frame per session, e.g. 'base.*')"))
-    print("RMS and max of the error norm (3D per point / orientation), samples inside / outside the training "
-          "joint ranges:")
+    print("RMS and max of the error norm (3D per point / orientation; 2D per image corner), samples inside / "
+          "outside the training joint ranges:")
     print(f"  {'block':<20}{'error':<22}{'samples':<10}{'n':>5}{'RMS |e|':>12}{'max |e|':>12}")
     for b in report.blocks:
         for part in ("all", "inside_training_range", "outside_training_range"):
@@ -47,6 +49,21 @@ def cmd_evaluate(args) -> int:
     return 0
 
 
+def detection_files(values: list[str]) -> dict[str | None, Path]:
+    """--detections FILE (the config's one camera block) or NAME=FILE, each once."""
+    out = {}
+    for v in values:
+        name, _, path = v.rpartition("=") if "=" in v and not Path(v).exists() else ("", "", v)
+        key = name or None
+        if key in out:
+            raise InputError(f"{'camera block ' + repr(name) if name else 'the camera block'} given two detections "
+                             "files", field="--detections")
+        if not Path(path).is_file():
+            raise InputError(f"detections file not found: {path}", source=path, field="--detections")
+        out[key] = Path(path).resolve()
+    return out
+
+
 def add_parser(subparsers) -> None:
     e = subparsers.add_parser("evaluate", help="score a calibrated model (output folder) on another session, or "
                                                "predict a new log's torques with an identified dynamic model")
@@ -56,4 +73,7 @@ def add_parser(subparsers) -> None:
     e.add_argument("--config", help="the calibration YAML (default: RESULT_DIR/config.yaml)")
     e.add_argument("--refit", action="append", default=[], metavar="PATTERN",
                    help="parameters re-registered per session, refitted on this data (e.g. 'base.*'); repeatable")
+    e.add_argument("--detections", action="append", default=[], metavar="[NAME=]FILE",
+                   help="a camera block's detections of the new images (sample, corner, u, v); NAME= when the "
+                        "config has several camera blocks")
     e.set_defaults(handler=cmd_evaluate)

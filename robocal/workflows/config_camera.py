@@ -20,9 +20,11 @@ parameters are made; the frame's placement is then free and starts at the closed
 """
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
+import pinocchio as pin
 
 from robocal.errors import InputError
 from robocal.estimation.camera_block import MIN_CORNERS, CameraSetup, camera_setup
@@ -32,7 +34,7 @@ from robocal.io.tables import Table
 from robocal.residuals.camera_model import camera_spec_from_dict
 from robocal.residuals.reprojection import MOUNTS
 from robocal.workflows.config_keys import Cfg
-from robocal.workflows.config_types import CameraBlockConfig, MeasurementConfig
+from robocal.workflows.config_types import CameraBlockConfig, FrameSpec, MeasurementConfig, Placement
 
 #: a camera block's sigma when it gives none (px per corner coordinate)
 DEFAULT_SIGMA = 0.5
@@ -99,6 +101,55 @@ def camera_residual(robot, m: MeasurementConfig, source: str, joint_names, value
                         sigma=float(m.sigma), intrinsics_free=spec.free, intrinsics_prior=spec.prior,
                         min_corners=cam.min_corners, sample_ids=sample_ids)
 
+
+
+def camera_detections(config, given: dict | None) -> dict[str, Path]:
+    """{camera block name: detections file} for scoring other images (robocal evaluate): every camera block of
+    `config` needs one; a key None names the only camera block."""
+    blocks = [m for m in config.measurements if m.camera is not None]
+    given = dict(given or {})
+    if None in given:
+        if len(blocks) != 1:
+            raise InputError(f"--detections FILE without a block name needs exactly one camera block; this config has "
+                             f"{len(blocks)}: give NAME=FILE", source=config.source, field="--detections")
+        given[blocks[0].name] = given.pop(None)
+    names = {m.name for m in blocks}
+    unknown = sorted(set(given) - names)
+    if unknown:
+        raise InputError(f"no camera block named {', '.join(unknown)} (camera blocks: {', '.join(sorted(names)) or 'none'})",
+                         source=config.source, field="--detections")
+    missing = [m for m in blocks if m.name not in given]
+    if missing:
+        raise InputError(f"camera block '{missing[0].name}' scores the new images from their own detections: pass "
+                         "--detections FILE (sample, corner, u, v; the samples named as in the new CSV)",
+                         source=config.source, field=f"{missing[0].path}.detections")
+    return {n: Path(f).resolve() for n, f in given.items()}
+
+
+def with_detections(config, detections: dict[str, Path]):
+    """The config with the detections file of each named camera block replaced."""
+    measurements = [dataclasses.replace(m, camera=dataclasses.replace(m.camera, detections=detections[m.name]))
+                    if m.camera is not None and m.name in detections else m for m in config.measurements]
+    return dataclasses.replace(config, measurements=measurements)
+
+
+def with_camera_frames_of(config, robot):
+    """The config with each frame its camera set-up added on `robot` (the training data's closed-form start) made
+    a frame of the `robot:` section, at that placement: a fit's frame parameters are corrections of that start,
+    so another session's set-up must start from it, not from its own closed form."""
+    have = {f.name for f in config.robot.frames}
+    added = []
+    for m in config.measurements:
+        if m.camera is None or m.frame in have or not robot.model.existFrame(m.frame):
+            continue
+        frame = robot.model.frames[robot.frame_id(m.frame)]
+        parent = robot.model.frames[robot.frame_id(m.camera.attached_to)]
+        rel = parent.placement.inverse() * frame.placement
+        added.append(FrameSpec(m.frame, m.camera.attached_to,
+                               Placement(tuple(rel.translation.tolist()), tuple(pin.rpy.matrixToRpy(rel.rotation).tolist()))))
+    if not added:
+        return config
+    return dataclasses.replace(config, robot=dataclasses.replace(config.robot, frames=(*config.robot.frames, *added)))
 
 
 def refuse_camera_blocks(config, command: str, why: str) -> None:

@@ -20,7 +20,7 @@ from robocal.estimation.cross_validation import RANGE_MARGIN, range_excess
 from robocal.estimation.registration import fit_subset
 from robocal.estimation.prediction_errors import UNITS, norm_errors, norm_rms, term_errors
 from robocal.io.tables import read_csv
-from robocal.workflows.config_camera import refuse_camera_blocks
+from robocal.workflows.config_camera import camera_detections, with_camera_frames_of, with_detections
 from robocal.workflows.config_read import read_config, with_parameters
 from robocal.workflows.config_types import CalibrationConfig
 from robocal.workflows.setup import Setup, build_setup
@@ -29,16 +29,20 @@ from robocal.workflows.data_check import units_findings
 from robocal.workflows.outputs import apply_result, load_result
 
 
-def setup_for_data(config, csv: str | Path | None = None, parameters: dict | None = None) -> Setup:
+def setup_for_data(config, csv: str | Path | None = None, parameters: dict | None = None,
+                   detections: dict[str, Path] | None = None) -> Setup:
     """A config's problem (a YAML path or a CalibrationConfig), optionally on another CSV file of the same
-    columns and with changed parameters.
+    columns, with changed parameters, and with other detections files for its camera blocks.
 
     csv replaces `data.csv` and every block's `csv` (absolute, or relative to the config's folder);
-    parameters: keys of the `parameters:` section replaced, in their YAML form (e.g. {"preset": "offsets"}).
+    parameters: keys of the `parameters:` section replaced, in their YAML form (e.g. {"preset": "offsets"});
+    detections: {camera block name: its detections CSV for the images of `csv`}.
     """
     config = config if isinstance(config, CalibrationConfig) else read_config(config)
     if parameters:
         config = with_parameters(config, parameters)
+    if detections:
+        config = with_detections(config, detections)
     table = None if csv is None else read_csv((config.base_dir / csv).resolve())
     return build_setup(config, table=table)
 
@@ -58,14 +62,17 @@ class EvaluationReport:
 
 
 def evaluate_result(result_dir, csv, config, refit: list[str] | None = None,
-                    options: CalibrationOptions | None = None) -> EvaluationReport:
-    """Score the model of `result_dir` on `csv` (columns as in `config`); refit only the `refit` patterns."""
+                    options: CalibrationOptions | None = None,
+                    detections: dict[str | None, Path] | None = None) -> EvaluationReport:
+    """Score the model of `result_dir` on `csv` (columns as in `config`); refit only the `refit` patterns.
+    detections: the new images' detections file of each camera block ({None: file} when there is one block)."""
     result, source = load_result(result_dir)
     config = config if isinstance(config, CalibrationConfig) else read_config(config)
-    refuse_camera_blocks(config, "evaluate", "their measurements are a detections file, not columns of the CSV "
-                         "it scores; score other images with a config of their own (robocal cv holds images out)")
+    detections = camera_detections(config, detections)
     train = setup_for_data(config)
-    setup = setup_for_data(config, csv)
+    if detections:
+        config = with_camera_frames_of(config, train.problem.robot)
+    setup = setup_for_data(config, csv, detections=detections)
     findings = units_findings(setup)      # the other session in the config's units, as calibrate checks
     if findings:
         raise findings[0]
@@ -94,10 +101,10 @@ def evaluate_result(result_dir, csv, config, refit: list[str] | None = None,
                 # a rigid body's points one by one: the figure of each is what a single-point protocol scores
                 entry["points"] = {lab: norm_rms(e[:, j]) for j, lab in enumerate(b.labels)}
             blocks.append(entry)
-            for k, i in enumerate(s):
+            for k, i in enumerate(s):      # a sample's every term (a camera image: one per corner)
                 per_sample.setdefault(int(i), {"sample": int(i), "csv_line": setup.sample_rows[int(i)][1] + 2,
-                                               "outside_training_range": bool(outside[i])})[
-                    f"{name} {label} ({unit})"] = [float(v) for v in e[k]]
+                                               "outside_training_range": bool(outside[i])}).setdefault(
+                    f"{name} {label} ({unit})", []).extend(float(v) for v in e[k])
     joints = setup.problem.joint_names
     far = [{"sample": int(i), "csv_line": setup.sample_rows[int(i)][1] + 2,
             "beyond_range": {j: float(excess[i, k]) for k, j in enumerate(joints) if abs(excess[i, k]) > RANGE_MARGIN}}
