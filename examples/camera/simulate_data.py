@@ -44,13 +44,7 @@ def main():
     truth = robot_parameters(robot, joints, "offsets")
     for j in joints:
         truth[f"{j}.offset"].value = rng.uniform(1e-3, 5e-3) * rng.choice([-1, 1])
-    labels = [f"img{i + 1:02d}" for i in range(len(values))]
-    det = simulate_detections(robot, truth, joints, values, "camera", "eye_in_hand", TARGET_IN_WORLD, target, CAMERA,
-                              K_TRUE, NOISE_PX, rng, labels)
-    rows = [",".join(["sample", *joints])] + [",".join([lab, *(f"{v:.17g}" for v in row)])
-                                                for lab, row in zip(labels, values)]
-    (HERE / "joints.csv").write_text("\n".join(rows) + "\n")
-    write_detections(HERE / "detections.csv", det)
+    det = write_images(robot, truth, joints, target, TARGET_IN_WORLD, values, "img", rng, "")
     doc = {"joint_offsets_rad": {j: truth[f"{j}.offset"].value for j in joints},
            "camera_on_tool0": {"xyz": CAMERA_ON_TOOL0.translation.tolist(),
                                "rpy": pin.rpy.matrixToRpy(CAMERA_ON_TOOL0.rotation).tolist()},
@@ -69,14 +63,20 @@ def second_session(robot, truth, joints, target):
     rng = np.random.default_rng(37)
     values = camera_candidates(robot, joints, "camera", "eye_in_hand", TARGET_SESSION2, target, CAMERA, K_TRUE,
                                N_POSES_SESSION2, rng, SEED_READING).values
-    labels = [f"s2img{i + 1:02d}" for i in range(len(values))]
-    det = simulate_detections(robot, truth, joints, values, "camera", "eye_in_hand", TARGET_SESSION2, target, CAMERA,
+    det = write_images(robot, truth, joints, target, TARGET_SESSION2, values, "s2img", rng, "_session2")
+    print(f"wrote the second session: {len(values)} images, {len(det.corners)} corners")
+
+
+def write_images(robot, truth, joints, target, target_pose, values, label, rng, suffix):
+    """Simulate every image's corners seen from `values` and write joints{suffix}.csv and detections{suffix}.csv."""
+    labels = [f"{label}{i + 1:02d}" for i in range(len(values))]
+    det = simulate_detections(robot, truth, joints, values, "camera", "eye_in_hand", target_pose, target, CAMERA,
                               K_TRUE, NOISE_PX, rng, labels)
     rows = [",".join(["sample", *joints])] + [",".join([lab, *(f"{v:.17g}" for v in row)])
                                                 for lab, row in zip(labels, values)]
-    (HERE / "joints_session2.csv").write_text("\n".join(rows) + "\n")
-    write_detections(HERE / "detections_session2.csv", det)
-    print(f"wrote the second session: {len(values)} images, {len(det.corners)} corners")
+    (HERE / f"joints{suffix}.csv").write_text("\n".join(rows) + "\n")
+    write_detections(HERE / f"detections{suffix}.csv", det)
+    return det
 
 
 if __name__ == "__main__":
