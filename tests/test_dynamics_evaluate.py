@@ -30,12 +30,23 @@ def test_two_logs_train_one_model_and_a_third_is_predicted(tmp_path, capsys):
     assert res.n_train == res.parts[0].train.sum() + res.parts[1].train.sum() > 1.8 * res.parts[0].train.sum()
     out = tmp_path / "out"
     assert main(["identify", str(tmp_path / "two.yaml"), "-o", str(out)]) == 0
+    full = capsys.readouterr().out
+    # -q: what comes before any figure, the status, the held-out figures, the verdict and the URDF; the same files
+    assert main(["identify", str(tmp_path / "two.yaml"), "-o", str(tmp_path / "quiet"), "-q"]) == 0
+    brief = capsys.readouterr().out
+    assert "Signal processing:" in full and "Signal processing:" not in brief and "Wrote" not in brief
+    assert len(brief.splitlines()) < len(full.splitlines()) / 2
+    for part in ("Dynamic identification:", "Consistent fit: Clarabel status", "Held-out torque RMSE",
+                 "Identified URDF:", "summary.txt"):
+        assert part in brief, part
+    assert (tmp_path / "quiet" / "result.json").read_bytes() == (out / "result.json").read_bytes()
     log_yaml = tmp_path / "new.yaml"
     log_yaml.write_text(yaml.safe_dump({"name": "session3", **{k: str(new / f"{k}.csv") for k in
                                                               ("position", "velocity", "effort")}}))
     capsys.readouterr()
-    assert main(["evaluate", str(out), str(log_yaml)]) == 0
+    assert main(["evaluate", str(out), str(log_yaml), "-q"]) == 0
     printed = capsys.readouterr().out
+    assert "Wrote" not in printed                             # -q: the figures, not the file list
     report = json.loads((out / "evaluation_session3.json").read_text())
     assert "RMSE vs logged" in printed and report["rows_scored"] > 2000
     logged = np.array(list(report["rmse_against_logged"].values()))

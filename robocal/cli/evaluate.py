@@ -15,7 +15,7 @@ from robocal.workflows.evaluate import evaluate_result, write_evaluation
 def cmd_evaluate(args) -> int:
     folder = Path(args.result_dir).resolve()
     if (folder / "dynamics.yaml").is_file():           # a `robocal identify` folder: its own evaluation
-        return evaluate_dynamics(folder, Path(args.data))
+        return evaluate_dynamics(folder, Path(args.data), args.quiet)
     config = Path(args.config) if args.config else folder / "config.yaml"
     if not config.is_file():
         raise InputError("no config.yaml in the result folder: pass --config CALIB.yaml (the config it was "

@@ -9,21 +9,25 @@ def cmd_identify(args) -> int:
     for bad input (the error propagates to cli.main, which prints it and exits 2)."""
     # imported here: the dynamics stack (scipy.signal, scipy.stats) costs ~0.4 s of start-up that every
     # other command would pay
-    from robocal.workflows.identify_outputs import write_identification
+    from robocal.io.output_folder import write_folder
+    from robocal.workflows.identify_outputs import identification_files
     from robocal.workflows.identify import identify_from_config
     res = identify_from_config(args.config)
     target = args.output if args.output is not None else res.config.output
     if target is None:
         raise InputError("no output folder: give -o or set `output` in the config", source=str(args.config),
                          field="output")
-    files = write_identification(res, target, args.force)
+    contents, brief = identification_files(res)
+    files = write_folder(target, contents, force=args.force)
+    if args.quiet:
+        print(brief, end="")
+        return 0
     print(files["summary.txt"].read_text(encoding="utf-8"), end="")      # what was written, not a second run
-    if not args.quiet:
-        print(f"\nWrote {', '.join(str(f) for f in files.values())}")
+    print(f"\nWrote {', '.join(str(f) for f in files.values())}")
     return 0
 
 
-def evaluate_dynamics(folder, log_yaml) -> int:
+def evaluate_dynamics(folder, log_yaml, quiet: bool = False) -> int:
     """`robocal evaluate IDENTIFY_DIR LOG.yaml` for an identify output folder (robocal.cli.evaluate hands it
     over): per-joint RMSE of the identified model's prediction at the log's raw rows."""
     from robocal.workflows.identify_evaluate import evaluate_dynamics as run, write_evaluation
@@ -42,7 +46,8 @@ def evaluate_dynamics(folder, log_yaml) -> int:
         for j, u, a, b in zip(ev.joints, ev.joint_units, ev.joint_rmse_logged, ev.joint_rmse_filtered):
             print(f"  {j:<20}{a:>14.3f} {u:<3}{b:>16.3f} {u:<3}")
     files = write_evaluation(folder, ev)
-    print(f"\nWrote {', '.join(str(f) for f in files.values())}")
+    if not quiet:
+        print(f"\nWrote {', '.join(str(f) for f in files.values())}")
     return 0
 
 

@@ -13,7 +13,7 @@ import yaml
 from robocal.dynamics.identify_log import MODELS
 from robocal.dynamics.identified_model import SIDE_FILE
 from robocal.workflows.identify import IdentifyResult
-from robocal.workflows.identify_summary import LABELS, findings, summary_text
+from robocal.workflows.identify_summary import LABELS, brief_summary_text, findings, summary_text
 from robocal.workflows.identify_urdf import identified_urdf_entry, side_file, torque_units, urdf_of
 from robocal.io.output_folder import write_folder
 from robocal.viz.svg_torques import joint_torques
@@ -78,7 +78,8 @@ def torque_figure(res: IdentifyResult) -> bytes:
                          title="Held-out window: measured (low-pass filtered) vs predicted torque").encode()
 
 
-def write_identification(res: IdentifyResult, out_dir: str | Path, force: bool = False) -> dict[str, Path]:
+def identification_files(res: IdentifyResult) -> tuple[dict[str, bytes], str]:
+    """Every file of an identification folder, and the brief summary `robocal identify -q` prints."""
     urdf = urdf_of(res)
     d = result_dict(res, urdf)
     files = {"result.json": json.dumps(d, indent=1).encode(), "summary.txt": summary_text(res, d).encode()}
@@ -88,6 +89,10 @@ def write_identification(res: IdentifyResult, out_dir: str | Path, force: bool =
         files[SIDE_FILE] = yaml.safe_dump(side_file(res, name).to_dict(), sort_keys=False).encode()
     if res.curves:
         files["torque_validation.svg"] = torque_figure(res)
-    return write_folder(out_dir, files, force=force)
+    return files, brief_summary_text(res, d)
+
+
+def write_identification(res: IdentifyResult, out_dir: str | Path, force: bool = False) -> dict[str, Path]:
+    return write_folder(out_dir, identification_files(res)[0], force=force)
 
 

@@ -14,19 +14,39 @@ from robocal.dynamics.chi_square import chi2_quantile
 LABELS = {"cad": "CAD (URDF)", "ols": "OLS base parameters", "consistent": "physically consistent"}
 
 
+def head_lines(res: IdentifyResult, d: dict) -> list[str]:
+    """What comes before any figure: a solver stopped short, the input notes, the findings."""
+    lines = [f"Dynamic identification: {res.config.source}", ""]
+    if not res.consistent.converged:
+        lines += [f"WARNING: the consistent fit's solver stopped short of its tolerance (Clarabel status "
+                  f"{res.consistent.status}); its figures below are not an optimum.", ""]
+    lines += [f"NOTE (input): {n}" for n in res.notes]
+    return lines + ([f"FINDING: {f}" for f in d["findings"]]
+                    or ["No finding: no plausibility bound or physical constraint is contradicted by the training "
+                        "data beyond their noise."])
+
+
+def brief_summary_text(res: IdentifyResult, d: dict) -> str:
+    """`robocal identify -q`: the head (warnings, notes, findings), the consistent fit's status, the held-out
+    figures, whether the model stays within the noise, and the URDF written; the rest is in summary.txt."""
+    entry = d["identified_urdf"]
+    lines = head_lines(res, d) + ["", f"Consistent fit: Clarabel status {res.consistent.status}; every body's "
+                                      "pseudo-inertia PSD: " + str(all(v[1] for v in res.consistency.values()))]
+    lines += validation_lines(res, torque_units(res))
+    lines += ["", within_noise_verdict(res.within_noise),
+              f"Identified URDF: {entry['file']}" if entry["file"] else
+              "No identified URDF written: " + "; ".join(entry["not_written_because"]) + ".",
+              "(every figure, the signal processing and the constraints' cost: summary.txt)"]
+    return "\n".join(lines) + "\n"
+
+
 def summary_text(res: IdentifyResult, d: dict | None = None) -> str:
     """The summary; d: identify_outputs.result_dict(res) when the caller has it already (its URDF entry and
     findings are reused). Warnings, input notes and findings come before any figure."""
     if d is None:
         d = {"findings": findings(res), "identified_urdf": identified_urdf_entry(urdf_of(res))}
     units = torque_units(res)
-    lines = [f"Dynamic identification: {res.config.source}", ""]
-    if not res.consistent.converged:        # said before any figure
-        lines += [f"WARNING: the consistent fit's solver stopped short of its tolerance (Clarabel status "
-                  f"{res.consistent.status}); its figures below are not an optimum.", ""]
-    lines += [f"NOTE (input): {n}" for n in res.notes]
-    lines += [f"FINDING: {f}" for f in d["findings"]] or ["No finding: no plausibility bound or physical constraint "
-                                                         "is contradicted by the training data beyond their noise."]
+    lines = head_lines(res, d)
     lines += ["", "Signal processing:"]
     lines += [f"  - {c}" for c in res.processed.choices]
     vc = res.processed.velocity_check
