@@ -83,11 +83,13 @@ def check_detections(det: Detections, target: CameraTarget, camera: CameraModel,
 def camera_setup(robot, joint_names, values, labels, det: Detections, target: CameraTarget, camera: CameraModel,
                  intrinsics, *, mount: str = "eye_in_hand", frame: str = "camera", attached_to: str = "tool0",
                  name: str = "camera", sigma: float = 0.5, intrinsics_free=True, intrinsics_prior=None,
-                 min_corners: int = MIN_CORNERS, sample_ids=None) -> CameraSetup:
+                 min_corners: int = MIN_CORNERS, sample_ids=None, groups=None) -> CameraSetup:
     """The camera block of `det` started at the closed-form solution (module docstring). `values` are the joint
     readings (N, len(joint_names)) in SI, `labels` their sample labels; sample_ids (N,): each reading's sample
     index in the problem the residual goes into (default 0 .. N-1). The frame `frame` is added on `attached_to`
-    at the starting placement if the robot has no such frame. Mutates `robot` only so."""
+    at the starting placement if the robot has no such frame. Mutates `robot` only so. groups (N,): each
+    reading's session when the fixed part (board or camera) was placed anew between sessions; the closed form
+    then uses the session with the most images, the others' placements being the sessions' own frames."""
     check_detections(det, target, camera, min_corners)
     idx = sample_index(det, labels)
     k = camera.check_intrinsics(intrinsics)
@@ -112,9 +114,16 @@ def camera_setup(robot, joint_names, values, labels, det: Detections, target: Ca
                          f"{', '.join(str(labels[i]) for i, _ in behind[:5])}): its printed face points away from "
                          "the camera, so the corner ids run mirrored; check the target's corner numbering "
                          "(docs/camera.md, target frame)", source=det.source, row=behind[0][1], field="corner")
+    closed = images
+    if groups is not None:          # one fixed placement a session: the closed form within the fullest one
+        g = np.asarray(groups)[images]
+        closed = images[g == np.bincount(g).argmax()]
+        if len(closed) < MIN_IMAGES:
+            raise InputError(f"{len(closed)} images in the session with the most; a hand-eye calibration needs at "
+                             f"least {MIN_IMAGES} in one session", source=det.source, field="sample")
     nominal = ModelState(robot, ParameterSet(), list(joint_names))
-    F = [nominal.sample(values[i]).pose(attached_to) for i in images]
-    T = [pnp[int(i)] for i in images]
+    F = [nominal.sample(values[i]).pose(attached_to) for i in closed]
+    T = [pnp[int(i)] for i in closed]
     if mount == "eye_in_hand":
         he = hand_eye(F, T)                          # X: camera on the flange, W: target in the world
         placement, fixed = he.X, he.W

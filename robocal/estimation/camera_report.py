@@ -66,7 +66,10 @@ def camera_summary(problem: Problem, setup: CameraSetup) -> dict:
         "frame": {"name": setup.frame, "relative_to": setup.attached_to,
                   "what": "camera" if in_hand else "target",
                   **placement_dict(on_robot, stderr([f"{setup.frame}.{c}" for c in COMPONENTS]))},
-        "fixed": {"what": "target in the world" if in_hand else "camera in the world",
+        "fixed": {"what": ("target in the world" if in_hand else "camera in the world")
+                  + (f" (session '{problem.sessions.names[0]}'; the others' placements: result.json sessions, "
+                     "their frame corrections)" if problem.sessions is not None and problem.sessions.corrected
+                     else ""),
                   **placement_dict(fixed, stderr([f"{res.pose_prefix}.{c}" for c in POSE_SUFFIXES]))},
         "intrinsics": intrinsics,
         "images": [{"sample": setup.labels.get(i, str(i + 1)), "corners": n, "rms_px": e}

@@ -118,7 +118,8 @@ def session_folds(sessions) -> list[np.ndarray]:
 
 def held_out_frames(problem: Problem, fold: np.ndarray) -> list[str]:
     """The frame parameters to register on a held-out fold before scoring it: a whole re-registered session's
-    own frame (base.* for the first session, base@<name>.* for the others), else none."""
+    own frame (base.* and what the blocks place in the world, a camera's target, for the first session;
+    base@<name>.* for the others), else none."""
     sessions = problem.sessions
     if sessions is None or not sessions.corrected:
         return []
@@ -126,7 +127,9 @@ def held_out_frames(problem: Problem, fold: np.ndarray) -> list[str]:
     if len(held) != 1 or len(fold) != np.sum(sessions.of_sample == next(iter(held))):
         return []
     s = held.pop()
-    names = sessions.parameter_names(s) if s else [n for n in problem.params.names if n.startswith("base.")]
+    names = sessions.parameter_names(s) if s else (
+        [n for n in problem.params.names if n.startswith("base.")]
+        + [n for r in problem.residuals for n in r.placed_per_session()])
     return [n for n in names if n in problem.params.names and problem.params[n].vary]
 
 

@@ -136,6 +136,11 @@ class Residual(ABC):
     def term_samples(self, k: int) -> tuple[int, ...]:
         return (int(self.samples[k]),)
 
+    def placed_per_session(self) -> list[str]:
+        """Set-up parameters of this block that place something fixed in the world (a camera's target or camera):
+        a session that re-places the robot's surroundings re-registers them with base.* (cross_validation)."""
+        return []
+
     def term_feature(self, k: int) -> tuple:
         """What term k measures beside its posture, when one posture gives several terms (a camera image: one
         term per corner); terms of equal postures and features repeat each other (workflows/posture_check.py)."""

@@ -92,6 +92,9 @@ class ReprojectionResidual(Residual):
     def term_feature(self, k: int) -> tuple:
         return (int(self.corners[k]),)          # an image gives one term per corner
 
+    def placed_per_session(self) -> list[str]:
+        return [p.name for p in self.aux_parameters() if p.name.startswith(self.pose_prefix + ".")]
+
     @property
     def pose_prefix(self) -> str:
         return f"{self.name}.{'target' if self.mount == 'eye_in_hand' else 'camera'}"

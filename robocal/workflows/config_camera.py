@@ -82,12 +82,17 @@ def image_labels(tab: Table, rows) -> list[str]:
 
 
 def camera_residual(robot, m: MeasurementConfig, source: str, joint_names, values: np.ndarray, labels,
-                    sample_ids, sessions: bool) -> CameraSetup:
-    """Set up one camera block over its images: values (N, n_joints) SI, labels, sample_ids in the problem."""
+                    sample_ids, sessions: np.ndarray | None) -> CameraSetup:
+    """Set up one camera block over its images: values (N, n_joints) SI, labels, sample_ids in the problem;
+    sessions (N,): each image's session (the board or camera placed anew in each), None for one session."""
     cam = m.camera
-    if sessions:
-        raise InputError("a camera block reads one table of joint readings: data.sessions and data.session_column "
-                         "are not supported with it", source=source, field=f"{m.path}.type")
+    if sessions is not None:
+        seen = {}
+        for lab, s in zip(labels, sessions):
+            if seen.setdefault(lab, s) != s:
+                raise InputError(f"image label {lab!r} is in two sessions: the detections name images by label, so "
+                                 "with sessions the labels must differ between them (a `sample` column)",
+                                 source=source, field=f"{m.path}.detections")
     if cam.detections is None:
         raise InputError("required key is missing (the detections CSV: sample, corner, u, v)", source=source,
                          field=f"{m.path}.detections")
@@ -99,7 +104,7 @@ def camera_residual(robot, m: MeasurementConfig, source: str, joint_names, value
     return camera_setup(robot, joint_names, values, labels, det, target, spec.model, spec.intrinsics,
                         mount=cam.mount, frame=m.frame, attached_to=cam.attached_to, name=m.name,
                         sigma=float(m.sigma), intrinsics_free=spec.free, intrinsics_prior=spec.prior,
-                        min_corners=cam.min_corners, sample_ids=sample_ids)
+                        min_corners=cam.min_corners, sample_ids=sample_ids, groups=sessions)
 
 
 

@@ -133,8 +133,10 @@ def build_setup(config: CalibrationConfig, *, table: Table | None = None,
             rows_all.append((tab, rows))
             labels_of += image_labels(tab, rows) if m.camera is not None else []
         if m.camera is not None:
+            several = data.sessions or data.session_column
             cameras[m.name] = camera_residual(robot, m, source, list(joint_cols), np.array([values[k] for k in idx]),
-                                              labels_of, idx, bool(data.sessions or data.session_column))
+                                              labels_of, idx, np.array([session_of[k] for k in idx]) if several
+                                              else None)
             residuals.append(cameras[m.name].residual)
             continue
         residuals.append(residual_from_block(REGISTRY[m.type], m, source, rows_all, np.array(idx), data.units,

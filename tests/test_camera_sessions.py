@@ -1,0 +1,76 @@
+"""A camera block over two sessions (data.sessions) with the board placed anew between them: examples/camera/'s
+two simulated sessions (the board moved 2 cm and turned 3 degrees, truth.json) fitted jointly, the second session's
+placement a frame of its own; and leave-one-session-out on them."""
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+import pytest
+import yaml
+
+from robocal.cli.main import main
+
+EXAMPLE = Path(__file__).parents[1] / "examples" / "camera"
+TRUTH = json.loads((EXAMPLE / "truth.json").read_text())
+
+
+def two_sessions(folder: Path, labelled: bool = True) -> Path:
+    for name in ("joints.csv", "joints_session2.csv"):
+        shutil.copy(EXAMPLE / name, folder / name)
+    second = (EXAMPLE / "detections_session2.csv").read_text().splitlines()[1:]
+    (folder / "detections.csv").write_text((EXAMPLE / "detections.csv").read_text() + "\n".join(second) + "\n")
+    cfg = yaml.safe_load((EXAMPLE / "camera.yaml").read_text())
+    cfg["data"] = {"sessions": [{"name": "first", "csv": "joints.csv"}, {"name": "moved", "csv": "joints_session2.csv"}]}
+    cfg.pop("plan")
+    if not labelled:           # images named by their row number: 1, 2, ... in both sessions
+        for name in ("joints.csv", "joints_session2.csv"):
+            lines = (folder / name).read_text().splitlines()
+            (folder / name).write_text("\n".join([lines[0].replace("sample,", "label,")] + lines[1:]) + "\n")
+    (folder / "two.yaml").write_text(yaml.safe_dump(cfg, sort_keys=False))
+    return folder / "two.yaml"
+
+
+def test_two_board_placements_fit_jointly_and_the_move_is_recovered(tmp_path):
+    out = tmp_path / "out"
+    assert main(["calibrate", str(two_sessions(tmp_path)), "-o", str(out), "-q", "--no-report"]) == 0
+    result = json.loads((out / "result.json").read_text())
+    assert result["status"] == "converged"
+    first, moved = result["sessions"]
+    # each session at the simulated noise: a corner's norm sqrt(2) x 0.3 = 0.424 px, its RMS over 1080 / 540
+    # corners within 3 of its 3.0 % / 4.3 % relative scatter (chi-square, 2 dof a corner; half that for the RMS)
+    for s, n in ((first, 1080), (moved, 540)):
+        rms = s["rms_norm_after"]["camera (px)"]
+        assert abs(rms / (np.sqrt(2) * TRUTH["noise_px"]) - 1) < 3 / np.sqrt(2 * n), (s["session"], rms)
+    # the second session's frame is the board's move, seen from the robot: W1 W2^-1 (within 4 standard errors)
+    w1, w2 = (pin.SE3(pin.rpy.rpyToMatrix(*TRUTH[k]["rpy"]), np.array(TRUTH[k]["xyz"]))
+              for k in ("target_in_world", "target_in_world_session2"))
+    move = w1 * w2.inverse()
+    fc = moved["frame_correction"]
+    assert abs(fc["translation_mm"] - 1e3 * np.linalg.norm(move.translation)) < 4 * np.linalg.norm(fc["stderr_mm"])
+    assert abs(fc["rotation_mrad"] - 1e3 * np.linalg.norm(pin.log3(move.rotation))) < 4 * np.linalg.norm(
+        fc["stderr_mrad"])
+    fixed = json.loads((out / "hand_eye.json").read_text())["camera"]["fixed"]
+    assert fixed["what"].startswith("target in the world (session 'first'")
+    # the joint zeros the images determine, within 4 standard errors of the truth (as with one session)
+    params = {p["name"]: p for p in result["parameters"]}
+    for j in ("shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint"):
+        p = params[f"{j}.offset"]
+        assert abs(p["value"] - TRUTH["joint_offsets_rad"][j]) < 4 * p["stderr"], (j, p)
+
+
+def test_leave_one_session_out_refits_the_held_out_board(tmp_path, capsys):
+    assert main(["cv", str(two_sessions(tmp_path))]) == 0
+    out = capsys.readouterr().out
+    held_out = float(out.split("held-out RMS ")[-1].split(" px")[0])
+    # each session predicted by the other's fit, its board re-registered: near the noise (0.424 px), with 10 or
+    # 20 images' worth of calibration error on top
+    assert "leave-one-session-out" in out and 0.38 < held_out < 0.6
+
+
+def test_images_named_alike_in_two_sessions_are_refused(tmp_path, capsys):
+    assert main(["calibrate", str(two_sessions(tmp_path, labelled=False)), "-o", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert "is in two sessions" in err and "measurements[0].detections" in err
+    assert not (tmp_path / "out").exists()
