@@ -74,3 +74,25 @@ def test_images_named_alike_in_two_sessions_are_refused(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "is in two sessions" in err and "measurements[0].detections" in err
     assert not (tmp_path / "out").exists()
+
+
+def test_a_session_column_is_the_same_two_sessions(tmp_path):
+    """One joints CSV with a session column gives the fit of the two CSVs listed as data.sessions."""
+    listed, column = tmp_path / "listed", tmp_path / "column"
+    listed.mkdir(), column.mkdir()
+    config = two_sessions(listed)
+    rows = [f"{line},{name}" for name, csv in (("first", "joints.csv"), ("moved", "joints_session2.csv"))
+            for line in (listed / csv).read_text().splitlines()[1:]]
+    header = (listed / "joints.csv").read_text().splitlines()[0] + ",session"
+    (column / "joints.csv").write_text("\n".join([header] + rows) + "\n")
+    shutil.copy(listed / "detections.csv", column / "detections.csv")
+    cfg = yaml.safe_load(config.read_text())
+    cfg["data"] = {"csv": "joints.csv", "session_column": "session"}
+    (column / "one.yaml").write_text(yaml.safe_dump(cfg, sort_keys=False))
+    values = []
+    for path in (config, column / "one.yaml"):
+        assert main(["calibrate", str(path), "-o", str(path.parent / "out"), "-q", "--no-report"]) == 0
+        result = json.loads((path.parent / "out" / "result.json").read_text())
+        values.append({p["name"]: p["value"] for p in result["parameters"]})
+    assert values[0].keys() == values[1].keys() and any(n.startswith("base@moved.") for n in values[0])
+    assert all(abs(values[0][n] - values[1][n]) < 1e-9 for n in values[0])
