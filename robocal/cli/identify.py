@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 from robocal.errors import InputError
+from robocal.io.output_folder import write_folder
 
 
 def cmd_identify(args) -> int:
@@ -9,7 +10,6 @@ def cmd_identify(args) -> int:
     for bad input (the error propagates to cli.main, which prints it and exits 2)."""
     # imported here: the dynamics stack (scipy.signal, scipy.stats) costs ~0.4 s of start-up that every
     # other command would pay
-    from robocal.io.output_folder import write_folder
     from robocal.workflows.identify_outputs import identification_files
     from robocal.workflows.identify import identify_from_config
     res = identify_from_config(args.config)
