@@ -11,7 +11,7 @@ waiting for a core does not inflate). "work" is the command's CPU time minus tha
 pinocchio"` (interpreter, numpy and Pinocchio: what every command starts with) in the same run.
 
 Examples: the demo (robocal/io/demo/ur5_calibrate.yaml), examples/tiago_mocap/*.yaml (the select_* configs are
-timed with `robocal select` and `cv`), examples/closed_loops/*.yaml, examples/camera/camera.yaml (calibrate, report, view --html, select, cv),
+timed with `robocal select` and `cv`), examples/closed_loops/*.yaml, examples/camera/camera.yaml (calibrate, report, view --html, evaluate on its second session, select, cv),
 examples/plan_ur5.yaml, an ISO 9283 data set written by this script (tests/test_iso9283_cli.py's recipe), and the
 dynamics configs examples/tiago_dynamics/identify.yaml and examples/motor_dynamics/{ur5_coupled,tiago_wrist}.yaml
 (identify, then evaluate of its folder).
@@ -96,6 +96,9 @@ def cases(tmp: Path) -> list[tuple[str, str, object]]:
     out.append(("calibrate", "camera", lambda d: ["calibrate", str(camera), "-o", str(d / "camera_cal"), "--force", "-q"]))
     out.append(("report", "camera", lambda d: ["report", str(d / "camera_cal"), "-q"]))
     out.append(("view --html", "camera", lambda d: ["view", str(d / "camera_cal"), "--html", str(d / "camera.html"), "-q"]))
+    out.append(("evaluate", "camera (session 2)", lambda d: [
+        "evaluate", str(d / "camera_cal"), str(EX / "camera" / "joints_session2.csv"), "--detections",
+        str(EX / "camera" / "detections_session2.csv"), "--refit", "camera.target.*", "-q"]))
     out.append(("select", "camera", lambda d: ["select", str(camera), "-o", str(d / "camera"), "--force", "-q"]))
     out.append(("cv", "camera", lambda d: ["cv", str(camera), "-q"]))
     out.append(("cv --loo", "camera", lambda d: ["cv", str(camera), "--loo", "-q"]))
