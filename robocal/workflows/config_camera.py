@@ -17,6 +17,9 @@ The rows of the joint-readings table the block reads are its images; a detection
 the table's `sample` column, or by the 1-based row number without one. The set-up (camera_setup: checks, PnP,
 closed-form hand-eye) adds the frame to the robot when the robot has none of that name, so it runs before the
 parameters are made; the frame's placement is then free and starts at the closed form (docs/camera.md).
+With sessions, the images of every session come from the one detections file, their labels distinct.
+Scoring other images (robocal evaluate): camera_detections names each block's new detections file, and
+with_camera_frames_of starts the camera frame where the fit started it.
 """
 from __future__ import annotations
 
