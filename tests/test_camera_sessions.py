@@ -17,19 +17,16 @@ TRUTH = json.loads((EXAMPLE / "truth.json").read_text())
 
 
 def two_sessions(folder: Path, labelled: bool = True) -> Path:
-    for name in ("joints.csv", "joints_session2.csv"):
+    """examples/camera/camera_sessions.yaml and its files in `folder`; labelled=False drops the joints files'
+    sample column, so the images of both sessions are named by row number (1, 2, ...)."""
+    for name in ("camera_sessions.yaml", "joints.csv", "joints_session2.csv", "detections.csv",
+                 "detections_session2.csv"):
         shutil.copy(EXAMPLE / name, folder / name)
-    second = (EXAMPLE / "detections_session2.csv").read_text().splitlines()[1:]
-    (folder / "detections.csv").write_text((EXAMPLE / "detections.csv").read_text() + "\n".join(second) + "\n")
-    cfg = yaml.safe_load((EXAMPLE / "camera.yaml").read_text())
-    cfg["data"] = {"sessions": [{"name": "first", "csv": "joints.csv"}, {"name": "moved", "csv": "joints_session2.csv"}]}
-    cfg.pop("plan")
-    if not labelled:           # images named by their row number: 1, 2, ... in both sessions
+    if not labelled:
         for name in ("joints.csv", "joints_session2.csv"):
             lines = (folder / name).read_text().splitlines()
             (folder / name).write_text("\n".join([lines[0].replace("sample,", "label,")] + lines[1:]) + "\n")
-    (folder / "two.yaml").write_text(yaml.safe_dump(cfg, sort_keys=False))
-    return folder / "two.yaml"
+    return folder / "camera_sessions.yaml"
 
 
 def test_two_board_placements_fit_jointly_and_the_move_is_recovered(tmp_path):
@@ -76,8 +73,9 @@ def test_images_named_alike_in_two_sessions_are_refused(tmp_path, capsys):
     assert not (tmp_path / "out").exists()
 
 
-def test_a_session_column_is_the_same_two_sessions(tmp_path):
-    """One joints CSV with a session column gives the fit of the two CSVs listed as data.sessions."""
+def test_a_session_column_and_one_detections_file_are_the_same_two_sessions(tmp_path):
+    """One joints CSV with a session column and one detections file give the fit of the shipped config (a joints
+    file and a detections file a session)."""
     listed, column = tmp_path / "listed", tmp_path / "column"
     listed.mkdir(), column.mkdir()
     config = two_sessions(listed)
@@ -85,9 +83,11 @@ def test_a_session_column_is_the_same_two_sessions(tmp_path):
             for line in (listed / csv).read_text().splitlines()[1:]]
     header = (listed / "joints.csv").read_text().splitlines()[0] + ",session"
     (column / "joints.csv").write_text("\n".join([header] + rows) + "\n")
-    shutil.copy(listed / "detections.csv", column / "detections.csv")
+    second = (listed / "detections_session2.csv").read_text().splitlines()[1:]
+    (column / "detections.csv").write_text((listed / "detections.csv").read_text() + "\n".join(second) + "\n")
     cfg = yaml.safe_load(config.read_text())
     cfg["data"] = {"csv": "joints.csv", "session_column": "session"}
+    cfg["measurements"][0]["detections"] = "detections.csv"
     (column / "one.yaml").write_text(yaml.safe_dump(cfg, sort_keys=False))
     values = []
     for path in (config, column / "one.yaml"):
@@ -96,3 +96,20 @@ def test_a_session_column_is_the_same_two_sessions(tmp_path):
         values.append({p["name"]: p["value"] for p in result["parameters"]})
     assert values[0].keys() == values[1].keys() and any(n.startswith("base@moved.") for n in values[0])
     assert all(abs(values[0][n] - values[1][n]) < 1e-9 for n in values[0])
+
+
+def test_a_label_in_two_detections_files_and_a_missing_file_name_their_place(tmp_path, capsys):
+    config = two_sessions(tmp_path)
+    lines = (tmp_path / "detections_session2.csv").read_text().splitlines()
+    lines[5] = lines[5].replace("s2img01,", "img01,", 1)       # the first session's image, in the second file
+    (tmp_path / "detections_session2.csv").write_text("\n".join(lines) + "\n")
+    assert main(["calibrate", str(config), "-o", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert "detections_session2.csv, row 6" in err and "sample img01 is also in" in err and "detections.csv" in err
+    cfg = yaml.safe_load(config.read_text())
+    cfg["measurements"][0]["detections"] = ["detections.csv", "elsewhere.csv"]
+    config.write_text(yaml.safe_dump(cfg))
+    assert main(["calibrate", str(config), "-o", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert "detections file not found" in err and "measurements[0].detections[1]" in err
+    assert not (tmp_path / "out").exists()

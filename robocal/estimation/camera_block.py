@@ -50,7 +50,7 @@ def sample_index(det: Detections, labels) -> np.ndarray:
     for k, s in enumerate(det.samples):
         if str(s) not in where:
             raise InputError(f"sample {s} has no joint readings (samples: {', '.join(map(str, labels[:5]))}"
-                             f"{' ...' if len(labels) > 5 else ''})", source=det.source, row=det.line(k),
+                             f"{' ...' if len(labels) > 5 else ''})", source=det.source_of(k), row=det.line(k),
                              field="sample")
         out[k] = where[str(s)]
     return out
@@ -62,22 +62,22 @@ def check_detections(det: Detections, target: CameraTarget, camera: CameraModel,
         if not target.has(c):
             raise InputError(f"corner id {c} is not on the {target.kind} target (ids {target.ids.min()} to "
                              f"{target.ids.max()}): is the target's geometry the one in the images?",
-                             source=det.source, row=det.line(k), field="corner")
+                             source=det.source_of(k), row=det.line(k), field="corner")
     outside = np.flatnonzero(~camera.inside(det.uv))
     if len(outside):
         k = int(outside[0])
         col = "u" if not -0.5 <= det.uv[k, 0] <= camera.width - 0.5 else "v"
         raise InputError(f"pixel ({det.uv[k, 0]:g}, {det.uv[k, 1]:g}) lies outside the {camera.width} x "
                          f"{camera.height} image ({len(outside)} such rows): check the image size and that u, v are "
-                         "pixels", source=det.source, row=det.line(k), field=col)
+                         "pixels", source=det.source_of(k), row=det.line(k), field=col)
     labels, counts = np.unique(det.samples.astype(str), return_counts=True)
     few = [(s, n) for s, n in zip(labels, counts) if n < min_corners]
     if few:
         s, n = few[0]
-        first = det.line(int(np.flatnonzero(det.samples.astype(str) == s)[0]))
+        k = int(np.flatnonzero(det.samples.astype(str) == s)[0])
         raise InputError(f"sample {s} has {n} corners; at least {min_corners} are needed to place the target in its "
                          f"image ({len(few)} such samples: {', '.join(str(x) for x, _ in few[:5])}); drop their rows "
-                         "or lower min_corners", source=det.source, row=first, field="corner")
+                         "or lower min_corners", source=det.source_of(k), row=det.line(k), field="corner")
 
 
 def camera_setup(robot, joint_names, values, labels, det: Detections, target: CameraTarget, camera: CameraModel,
@@ -103,7 +103,7 @@ def camera_setup(robot, joint_names, values, labels, det: Detections, target: Ca
         T, e, _ = solve_pnp(camera, k, target.points_of(det.corners[rows]), det.uv[rows])
         pnp[int(i)], rms[int(i)] = T, e
         if target.planar and T.rotation[2, 2] <= 0:
-            behind.append((int(i), det.line(int(rows[0]))))
+            behind.append((int(i), int(rows[0])))
     typical = float(np.median(list(rms.values())))
     for i, e in rms.items():
         if e > max(PNP_NOTE_PX, PNP_NOTE_RATIO * typical) and i not in dict(behind):
@@ -113,7 +113,8 @@ def camera_setup(robot, joint_names, values, labels, det: Detections, target: Ca
         raise InputError(f"the target is seen from behind in {len(behind)} image(s) (samples "
                          f"{', '.join(str(labels[i]) for i, _ in behind[:5])}): its printed face points away from "
                          "the camera, so the corner ids run mirrored; check the target's corner numbering "
-                         "(docs/camera.md, target frame)", source=det.source, row=behind[0][1], field="corner")
+                         "(docs/camera.md, target frame)", source=det.source_of(behind[0][1]), row=det.line(behind[0][1]),
+                         field="corner")
     closed = images
     if groups is not None:          # one fixed placement a session: the closed form within the fullest one
         g = np.asarray(groups)[images]

@@ -29,14 +29,21 @@ class Detections:
     uv: np.ndarray                  # (n, 2) px
     sigma: np.ndarray | None = None  # (n,) px
     lines: np.ndarray | None = None  # (n,) file line of each row (None: made in memory)
+    files: np.ndarray | None = None  # (n,) index into `sources` of each row's file, when read from several
+    sources: tuple[str, ...] = ()
 
     def line(self, k: int) -> int | None:
         return None if self.lines is None else int(self.lines[k])
 
+    def source_of(self, k: int) -> str:
+        """The file row k was read from."""
+        return self.source if self.files is None else self.sources[int(self.files[k])]
+
     def subset(self, keep: np.ndarray) -> "Detections":
         return Detections(self.source, self.samples[keep], self.corners[keep], self.uv[keep],
                           None if self.sigma is None else self.sigma[keep],
-                          None if self.lines is None else self.lines[keep])
+                          None if self.lines is None else self.lines[keep],
+                          None if self.files is None else self.files[keep], self.sources)
 
 
 def detections_from_table(tab: Table) -> Detections:
@@ -78,6 +85,32 @@ def detections_from_table(tab: Table) -> Detections:
 def read_detections(path: str | Path) -> Detections:
     """Read and check a detections CSV (columns in the module docstring)."""
     return detections_from_table(read_csv(path))
+
+
+def read_detections_files(paths) -> Detections:
+    """One file, or several read as one (a session's images each): every row keeps its file and line; a sample
+    label in two files is refused (a detection names its image by label), and so is a sigma column in some files
+    only."""
+    parts = [read_detections(p) for p in paths]
+    if len(parts) == 1:
+        return parts[0]
+    owner: dict[str, int] = {}
+    for f, det in enumerate(parts):
+        for k, s in enumerate(det.samples):
+            if owner.setdefault(s, f) != f:
+                raise InputError(f"sample {s} is also in {parts[owner[s]].source}: each image's label must be in one "
+                                 "detections file", source=det.source, row=det.line(k), field="sample")
+    with_sigma = [det.sigma is not None for det in parts]
+    if any(with_sigma) and not all(with_sigma):
+        f = with_sigma.index(False)
+        raise InputError("a sigma column in some detections files only: give it in all or none",
+                         source=parts[f].source, field="sigma")
+    return Detections(", ".join(det.source for det in parts), np.concatenate([det.samples for det in parts]),
+                      np.concatenate([det.corners for det in parts]), np.concatenate([det.uv for det in parts]),
+                      np.concatenate([det.sigma for det in parts]) if all(with_sigma) else None,
+                      np.concatenate([det.lines for det in parts]),
+                      np.concatenate([np.full(len(det.samples), f) for f, det in enumerate(parts)]),
+                      tuple(det.source for det in parts))
 
 
 def detections_csv(det: Detections) -> str:

@@ -5,7 +5,7 @@
       frame: camera               # the camera (eye_in_hand) or the target (eye_to_hand) on the robot
       attached_to: tool0          # the frame it hangs on (default tool0)
       mount: eye_in_hand          # or eye_to_hand
-      detections: detections.csv  # sample, corner, u, v[, sigma] (robocal.io.detections)
+      detections: detections.csv  # sample, corner, u, v[, sigma] (robocal.io.detections); or a list of files
       target: {type: checkerboard, corners: [9, 6], square: 0.03}      # robocal.io.camera_target
       camera: {model: plumb_bob, image_size: [1280, 1024], intrinsics: [fx, fy, cx, cy, k1, k2, p1, p2, k3],
                free: true, prior: {fx: 5.0}}                            # robocal.residuals.camera_model
@@ -17,7 +17,8 @@ The rows of the joint-readings table the block reads are its images; a detection
 the table's `sample` column, or by the 1-based row number without one. The set-up (camera_setup: checks, PnP,
 closed-form hand-eye) adds the frame to the robot when the robot has none of that name, so it runs before the
 parameters are made; the frame's placement is then free and starts at the closed form (docs/camera.md).
-With sessions, the images of every session come from the one detections file, their labels distinct.
+With sessions, the images of every session come from the detections files (one, or a list: one a session, say),
+their labels distinct.
 Scoring other images (robocal evaluate): camera_detections names each block's new detections file, and
 with_camera_frames_of starts the camera frame where the fit started it.
 """
@@ -32,7 +33,7 @@ import pinocchio as pin
 from robocal.errors import InputError
 from robocal.estimation.camera_block import MIN_CORNERS, CameraSetup, camera_setup
 from robocal.io.camera_target import target_from_dict
-from robocal.io.detections import read_detections
+from robocal.io.detections import read_detections_files
 from robocal.io.tables import Table
 from robocal.residuals.camera_model import camera_spec_from_dict
 from robocal.residuals.reprojection import MOUNTS
@@ -61,10 +62,16 @@ def camera_block_config(b: Cfg, base_dir: Path, placement) -> tuple[CameraBlockC
     sigma = b.get("sigma", DEFAULT_SIGMA, types=(int, float))
     if not (np.isfinite(sigma) and sigma > 0):
         raise b.error(f"a pixel sigma must be a positive number, got {sigma!r}", "sigma")
-    detections = b.get("detections", types=str)
+    detections = b.get("detections", types=(str, list))
+    if isinstance(detections, list):     # several files (a session's images each), read as one
+        if not detections or not all(isinstance(f, str) for f in detections):
+            raise b.error("detections: a file name, or a list of file names", "detections")
+        detections = tuple((base_dir / f).resolve() for f in detections)
+    elif detections is not None:
+        detections = (base_dir / detections).resolve()
     world = b.child("world_pose")
     return CameraBlockConfig(b.get("attached_to", "tool0", types=str), mount,
-                             None if detections is None else (base_dir / detections).resolve(), target, camera,
+                             detections, target, camera,
                              min_corners, None if world.value is None else placement(world)), float(sigma)
 
 
@@ -99,9 +106,12 @@ def camera_residual(robot, m: MeasurementConfig, source: str, joint_names, value
     if cam.detections is None:
         raise InputError("required key is missing (the detections CSV: sample, corner, u, v)", source=source,
                          field=f"{m.path}.detections")
-    if not cam.detections.is_file():
-        raise InputError(f"detections file not found: {cam.detections}", source=source, field=f"{m.path}.detections")
-    det = read_detections(cam.detections)
+    paths = cam.detections if isinstance(cam.detections, tuple) else (cam.detections,)
+    for k, path in enumerate(paths):
+        if not path.is_file():
+            raise InputError(f"detections file not found: {path}", source=source,
+                             field=f"{m.path}.detections" + (f"[{k}]" if len(paths) > 1 else ""))
+    det = read_detections_files(paths)
     target = target_from_dict(cam.target, source, f"{m.path}.target")
     spec = camera_spec_from_dict(cam.camera, source, f"{m.path}.camera")
     return camera_setup(robot, joint_names, values, labels, det, target, spec.model, spec.intrinsics,

@@ -156,7 +156,7 @@ class CameraBlockConfig:
 
     attached_to: str = "tool0"
     mount: str = "eye_in_hand"
-    detections: Path | None = None
+    detections: Path | tuple[Path, ...] | None = None      # a tuple: several files read as one
     target: dict = field(default_factory=dict)
     camera: dict = field(default_factory=dict)
     min_corners: int = 6
@@ -164,7 +164,9 @@ class CameraBlockConfig:
 
     def to_dict(self) -> dict:
         out = {"attached_to": self.attached_to, "mount": self.mount}
-        if self.detections is not None:
+        if isinstance(self.detections, tuple):
+            out["detections"] = [str(p) for p in self.detections]
+        elif self.detections is not None:
             out["detections"] = str(self.detections)
         out.update({"target": _plain(self.target), "camera": _plain(self.camera), "min_corners": self.min_corners})
         if self.world_pose is not None:
