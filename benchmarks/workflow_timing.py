@@ -11,7 +11,7 @@ waiting for a core does not inflate). "work" is the command's CPU time minus tha
 pinocchio"` (interpreter, numpy and Pinocchio: what every command starts with) in the same run.
 
 Examples: the demo (robocal/io/demo/ur5_calibrate.yaml), examples/tiago_mocap/*.yaml (the select_* configs are
-timed with `robocal select` and `cv`), examples/closed_loops/*.yaml, examples/camera/camera.yaml (calibrate, report, view --html, evaluate on its second session, select, cv),
+timed with `robocal select` and `cv`), examples/closed_loops/*.yaml, examples/camera/camera.yaml (calibrate, report, view --html, evaluate on its second session, select, cv) and camera_sessions.yaml (calibrate, select),
 examples/plan_ur5.yaml, an ISO 9283 data set written by this script (tests/test_iso9283_cli.py's recipe), and the
 dynamics configs examples/tiago_dynamics/identify.yaml and examples/motor_dynamics/{ur5_coupled,tiago_wrist}.yaml
 (identify, then evaluate of its folder).
@@ -102,6 +102,11 @@ def cases(tmp: Path) -> list[tuple[str, str, object]]:
     out.append(("select", "camera", lambda d: ["select", str(camera), "-o", str(d / "camera"), "--force", "-q"]))
     out.append(("cv", "camera", lambda d: ["cv", str(camera), "-q"]))
     out.append(("cv --loo", "camera", lambda d: ["cv", str(camera), "--loo", "-q"]))
+    sessions = EX / "camera" / "camera_sessions.yaml"
+    out.append(("calibrate", "camera sessions", lambda d: ["calibrate", str(sessions), "-o", str(d / "camera_s"),
+                                                           "--force", "-q"]))
+    out.append(("select", "camera sessions", lambda d: ["select", str(sessions), "-o", str(d / "camera_ss"), "--force",
+                                                        "-q"]))
     iso = iso9283_config(tmp / "iso")
     out.append(("iso9283", "ur5 iso (50 + 18 rows)", lambda d: ["iso9283", str(iso), "-q"]))
     out.append(("plan", "plan_ur5.yaml", lambda d: ["plan", str(EX / "plan_ur5.yaml"), "-o", str(d / "plan"),

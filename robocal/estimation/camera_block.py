@@ -83,13 +83,16 @@ def check_detections(det: Detections, target: CameraTarget, camera: CameraModel,
 def camera_setup(robot, joint_names, values, labels, det: Detections, target: CameraTarget, camera: CameraModel,
                  intrinsics, *, mount: str = "eye_in_hand", frame: str = "camera", attached_to: str = "tool0",
                  name: str = "camera", sigma: float = 0.5, intrinsics_free=True, intrinsics_prior=None,
-                 min_corners: int = MIN_CORNERS, sample_ids=None, groups=None) -> CameraSetup:
+                 min_corners: int = MIN_CORNERS, sample_ids=None, groups=None,
+                 pnp_cache: dict | None = None) -> CameraSetup:
     """The camera block of `det` started at the closed-form solution (module docstring). `values` are the joint
     readings (N, len(joint_names)) in SI, `labels` their sample labels; sample_ids (N,): each reading's sample
     index in the problem the residual goes into (default 0 .. N-1). The frame `frame` is added on `attached_to`
     at the starting placement if the robot has no such frame. Mutates `robot` only so. groups (N,): each
     reading's session when the fixed part (board or camera) was placed anew between sessions; the closed form
-    then uses the session with the most images, the others' placements being the sessions' own frames."""
+    then uses the session with the most images, the others' placements being the sessions' own frames.
+    pnp_cache: a dict kept between set-ups of the same images (robocal select's rungs): each image's PnP and the
+    closed-form hand-eye, keyed by their exact inputs, are solved once."""
     check_detections(det, target, camera, min_corners)
     idx = sample_index(det, labels)
     k = camera.check_intrinsics(intrinsics)
@@ -100,7 +103,15 @@ def camera_setup(robot, joint_names, values, labels, det: Detections, target: Ca
     pnp, rms, notes, behind = {}, {}, [], []
     for i in images:
         rows = np.flatnonzero(idx == i)
-        T, e, _ = solve_pnp(camera, k, target.points_of(det.corners[rows]), det.uv[rows])
+        P, uv = target.points_of(det.corners[rows]), det.uv[rows]
+        key = (camera.model, camera.width, camera.height, k.tobytes(), np.asarray(P, float).tobytes(),
+               np.asarray(uv, float).tobytes())
+        if pnp_cache is None or key not in pnp_cache:
+            T, e, _ = solve_pnp(camera, k, P, uv)
+            if pnp_cache is not None:
+                pnp_cache[key] = (T, e)
+        else:
+            T, e = pnp_cache[key]
         pnp[int(i)], rms[int(i)] = T, e
         if target.planar and T.rotation[2, 2] <= 0:
             behind.append((int(i), int(rows[0])))
@@ -125,14 +136,18 @@ def camera_setup(robot, joint_names, values, labels, det: Detections, target: Ca
     nominal = ModelState(robot, ParameterSet(), list(joint_names))
     F = [nominal.sample(values[i]).pose(attached_to) for i in closed]
     T = [pnp[int(i)] for i in closed]
-    if mount == "eye_in_hand":
-        he = hand_eye(F, T)                          # X: camera on the flange, W: target in the world
-        placement, fixed = he.X, he.W
-    elif mount == "eye_to_hand":
-        he = hand_eye([f.inverse() for f in F], T)   # X: camera in the world, W: target on the flange
-        placement, fixed = he.W, he.X
-    else:
+    if mount not in ("eye_in_hand", "eye_to_hand"):
         raise InputError(f"mount must be eye_in_hand or eye_to_hand, got {mount!r}", field="mount")
+    # eye-in-hand X: camera on the flange, W: target in the world; eye-to-hand X: camera in the world, W: target
+    # on the flange
+    A = F if mount == "eye_in_hand" else [f.inverse() for f in F]
+    key = ("hand_eye", b"".join(a.homogeneous.tobytes() + t.homogeneous.tobytes() for a, t in zip(A, T)))
+    he = pnp_cache.get(key) if pnp_cache is not None else None
+    if he is None:
+        he = hand_eye(A, T)
+        if pnp_cache is not None:
+            pnp_cache[key] = he
+    placement, fixed = (he.X, he.W) if mount == "eye_in_hand" else (he.W, he.X)
     start = place_frame(robot, frame, attached_to, placement)
     order = np.argsort(idx, kind="stable")
     ts = None if det.sigma is None else det.sigma[order]

@@ -92,7 +92,7 @@ def image_labels(tab: Table, rows) -> list[str]:
 
 
 def camera_residual(robot, m: MeasurementConfig, source: str, joint_names, values: np.ndarray, labels,
-                    sample_ids, sessions: np.ndarray | None) -> CameraSetup:
+                    sample_ids, sessions: np.ndarray | None, pnp_cache: dict | None = None) -> CameraSetup:
     """Set up one camera block over its images: values (N, n_joints) SI, labels, sample_ids in the problem;
     sessions (N,): each image's session (the board or camera placed anew in each), None for one session."""
     cam = m.camera
@@ -117,7 +117,7 @@ def camera_residual(robot, m: MeasurementConfig, source: str, joint_names, value
     return camera_setup(robot, joint_names, values, labels, det, target, spec.model, spec.intrinsics,
                         mount=cam.mount, frame=m.frame, attached_to=cam.attached_to, name=m.name,
                         sigma=float(m.sigma), intrinsics_free=spec.free, intrinsics_prior=spec.prior,
-                        min_corners=cam.min_corners, sample_ids=sample_ids, groups=sessions)
+                        min_corners=cam.min_corners, sample_ids=sample_ids, groups=sessions, pnp_cache=pnp_cache)
 
 
 

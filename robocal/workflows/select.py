@@ -16,7 +16,6 @@ from robocal.workflows.input_checks import check_inputs
 from robocal.workflows.config_read import read_config, with_parameters
 from robocal.workflows.config_types import CalibrationConfig
 from robocal.workflows.cv import fold_table, make_folds
-from robocal.workflows.evaluate import setup_for_data
 from robocal.workflows.setup import build_setup
 
 
@@ -31,7 +30,8 @@ def select_model(config, folds: int | None = None, loo: bool = False, group: str
     With the closed form, each rung keeps its fitted setup (`Selection.fits`): run_selected writes the chosen
     one without fitting it again."""
     config = config if isinstance(config, CalibrationConfig) else read_config(config)
-    base = build_setup(config)
+    pnp_cache: dict = {}                   # every rung sees the same images: a camera's PnP solved once each
+    base = build_setup(config, pnp_cache=pnp_cache)
     notes = check_inputs(base, allow_failed)
     closed_form = base.problem.sessions is None and folds is None and not loo and not group and not refits
     if closed_form:
@@ -47,9 +47,9 @@ def select_model(config, folds: int | None = None, loo: bool = False, group: str
         try:
             rung_config = with_parameters(config, rung.parameters)
             if spare is not None and rung_config == config:
-                setup, spare = spare, None     # not built twice (a camera's set-up solves a PnP per image)
+                setup, spare = spare, None     # not built twice
             else:
-                setup = build_setup(rung_config)
+                setup = build_setup(rung_config, pnp_cache=pnp_cache)
         except InputError as exc:
             rung.skipped = exc.reason
             continue
@@ -71,7 +71,7 @@ def select_model(config, folds: int | None = None, loo: bool = False, group: str
         label += ", " + hows[0][1]
     elif hows:                        # a rung the closed form does not allow was refitted
         label += ", " + "; ".join(f"{name}: {h}" for name, h in hows)
-    return Selection(rungs, chosen, best, label, notes=notes, fits=fits)
+    return Selection(rungs, chosen, best, label, notes=notes, fits=fits, pnp_cache=pnp_cache)
 
 
 def run_selected(config, selection: Selection, output_dir: str | Path | None = None, *, force: bool = False,
@@ -84,6 +84,8 @@ def run_selected(config, selection: Selection, output_dir: str | Path | None = N
         setup, nominal, result = kept
         return run_calibration(setup, output_dir, force=force, allow_failed=allow_failed, extra=extra,
                                fitted=(nominal, result))
-    setup = setup_for_data(config, parameters=selection.rungs[selection.chosen].parameters)
+    config = config if isinstance(config, CalibrationConfig) else read_config(config)
+    setup = build_setup(with_parameters(config, selection.rungs[selection.chosen].parameters),
+                        pnp_cache=selection.pnp_cache)
     return run_calibration(setup, output_dir, force=force, allow_failed=allow_failed, extra=extra,
-                           source=str(config.source if isinstance(config, CalibrationConfig) else config))
+                           source=str(config.source))
