@@ -14,6 +14,7 @@ from robocal.cli.main import main
 
 EXAMPLE = Path(__file__).parents[1] / "examples" / "camera"
 TRUTH = json.loads((EXAMPLE / "truth.json").read_text())
+NOISE = 0.3       # px per coordinate, the simulations' (and the example's) detection noise
 
 
 def two_sessions(folder: Path, labelled: bool = True) -> Path:
@@ -113,3 +114,53 @@ def test_a_label_in_two_detections_files_and_a_missing_file_name_their_place(tmp
     err = capsys.readouterr().err
     assert "detections file not found" in err and "measurements[0].detections[1]" in err
     assert not (tmp_path / "out").exists()
+
+
+def test_eye_to_hand_the_camera_moved_between_sessions(tmp_path):
+    """Eye-to-hand: a camera fixed in the world, moved 3 cm and turned 2 degrees between two sessions of 12 images
+    (simulated, 0.3 px); the target rides on tool0. The second session's frame is the camera's move seen from the
+    robot, C1 C2^-1, within 4 standard errors, and both sessions fit at the noise."""
+    from camera_cases import C_TRUE, CAMERA, K_TRUE, SEED_READING, TARGET, Y_TRUE
+    from robocal import load_example
+    from robocal.design.camera_poses import camera_candidates, simulate_detections
+    from robocal.io.camera_target import target_from_dict
+    from robocal.io.detections import write_detections
+    from robocal.model.parameters import robot_parameters
+
+    rng = np.random.default_rng(4)
+    robot = load_example("ur5")
+    joints = robot.joint_names
+    target = target_from_dict(TARGET)
+    robot.add_frame("target", "tool0", Y_TRUE)
+    truth = robot_parameters(robot, joints, "offsets")
+    moved = pin.SE3(pin.rpy.rpyToMatrix(0.0, 0.0, np.radians(2.0)), np.array([0.02, -0.02, 0.01])) * C_TRUE
+    sessions = []
+    for name, camera_pose in (("first", C_TRUE), ("moved", moved)):
+        values = camera_candidates(robot, joints, "target", "eye_to_hand", camera_pose, target, CAMERA, K_TRUE, 12,
+                                   rng, SEED_READING).values
+        labels = [f"{name}{i + 1:02d}" for i in range(len(values))]
+        det = simulate_detections(robot, truth, joints, values, "target", "eye_to_hand", camera_pose, target, CAMERA,
+                                  K_TRUE, NOISE, rng, labels)
+        rows = [",".join(["sample", *joints])] + [",".join([lab, *(f"{v:.17g}" for v in row)])
+                                                    for lab, row in zip(labels, values)]
+        (tmp_path / f"joints_{name}.csv").write_text("\n".join(rows) + "\n")
+        write_detections(tmp_path / f"detections_{name}.csv", det)
+        sessions.append({"name": name, "csv": f"joints_{name}.csv"})
+    block = {"type": "camera", "name": "cam", "frame": "target", "attached_to": "tool0", "mount": "eye_to_hand",
+             "detections": ["detections_first.csv", "detections_moved.csv"], "target": TARGET,
+             "camera": {"model": "plumb_bob", "image_size": [1280, 1024], "intrinsics": K_TRUE.tolist(), "free": False},
+             "sigma": NOISE}
+    config = tmp_path / "cam.yaml"
+    config.write_text(yaml.safe_dump({"robot": {"example": "ur5"}, "data": {"sessions": sessions},
+                                      "parameters": {"preset": "offsets"}, "measurements": [block]}))
+    assert main(["calibrate", str(config), "-o", str(tmp_path / "out"), "-q", "--no-report"]) == 0
+    result = json.loads((tmp_path / "out" / "result.json").read_text())
+    assert result["status"] == "converged"
+    first, second = result["sessions"]
+    for s in (first, second):          # 12 images x 54 corners: the RMS within 3 of its 2.8 % scatter
+        assert abs(s["rms_norm_after"]["cam (px)"] / (np.sqrt(2) * NOISE) - 1) < 3 / np.sqrt(2 * 12 * 54)
+    move = C_TRUE * moved.inverse()
+    fc = second["frame_correction"]
+    assert abs(fc["translation_mm"] - 1e3 * np.linalg.norm(move.translation)) < 4 * np.linalg.norm(fc["stderr_mm"])
+    assert abs(fc["rotation_mrad"] - 1e3 * np.linalg.norm(pin.log3(move.rotation))) < 4 * np.linalg.norm(
+        fc["stderr_mrad"])
