@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 
 from robocal.cli.main import main
 
@@ -73,3 +74,20 @@ def test_a_camera_block_needs_the_new_images_detections(calibrated, capsys):
     assert "no camera block named eye (camera blocks: camera)" in capsys.readouterr().err
     assert main(["evaluate", out, csv, "--detections", str(calibrated / "missing.csv")]) == 2
     assert "detections file not found" in capsys.readouterr().err
+
+
+def test_a_camera_frame_the_robot_already_has_is_its_own_start(tmp_path):
+    """The camera frame given in the config (as a URDF would have it: roughly placed, 1 cm and 20 mrad off): the
+    fit's frame parameters then correct that frame, and the other session is scored from it as it is."""
+    for name in ("joints.csv", "detections.csv", "joints_session2.csv", "detections_session2.csv"):
+        shutil.copy(EXAMPLE / name, tmp_path / name)
+    cfg = yaml.safe_load((EXAMPLE / "camera.yaml").read_text())
+    cfg["robot"]["frames"] = [{"name": "camera", "parent": "tool0", "xyz": [0.05, -0.06, 0.05],
+                               "rpy": [0.0, -0.03, 0.0]}]
+    (tmp_path / "camera.yaml").write_text(yaml.safe_dump(cfg, sort_keys=False))
+    assert main(["calibrate", str(tmp_path / "camera.yaml"), "-o", str(tmp_path / "out"), "-q", "--no-report"]) == 0
+    result = json.loads((tmp_path / "out" / "result.json").read_text())
+    assert abs({p["name"]: p["value"] for p in result["parameters"]}["camera.tx"]) > 5e-3   # it corrected the frame
+    _, rms = rms_px(evaluate(tmp_path, "joints_session2.csv", "--detections", str(tmp_path / "detections_session2.csv"),
+                             "--refit", "camera.target.*"))
+    assert np.sqrt(2) * NOISE_PX * 0.93 < rms < np.sqrt(2) * NOISE_PX * 1.12

@@ -151,14 +151,15 @@ def with_detections(config, detections: dict[str, Path]):
     return dataclasses.replace(config, measurements=measurements)
 
 
-def with_camera_frames_of(config, robot):
-    """The config with each frame its camera set-up added on `robot` (the training data's closed-form start) made
-    a frame of the `robot:` section, at that placement: a fit's frame parameters are corrections of that start,
-    so another session's set-up must start from it, not from its own closed form."""
-    have = {f.name for f in config.robot.frames}
-    added = []
+def with_camera_frames_of(config, setup):
+    """The config with each frame a camera set-up of `setup` (the training data's) added to its robot made a frame
+    of the `robot:` section, at that closed-form start: a fit's frame parameters are corrections of that start,
+    so another session's set-up must start from it, not from its own closed form. A frame the robot already had
+    (its URDF's, or the config's) is its own start and stays as it is."""
+    robot, added = setup.problem.robot, []
     for m in config.measurements:
-        if m.camera is None or m.frame in have or not robot.model.existFrame(m.frame):
+        cam = setup.cameras.get(m.name) if m.camera is not None else None
+        if cam is None or cam.start:      # start: the corrections that move an existing frame to the closed form
             continue
         frame = robot.model.frames[robot.frame_id(m.frame)]
         parent = robot.model.frames[robot.frame_id(m.camera.attached_to)]

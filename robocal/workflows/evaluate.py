@@ -71,7 +71,7 @@ def evaluate_result(result_dir, csv, config, refit: list[str] | None = None,
     detections = camera_detections(config, detections)
     train = setup_for_data(config)
     if detections:
-        config = with_camera_frames_of(config, train.problem.robot)
+        config = with_camera_frames_of(config, train)
     setup = setup_for_data(config, csv, detections=detections)
     findings = units_findings(setup)      # the other session in the config's units, as calibrate checks
     if findings:
