@@ -7,19 +7,23 @@ and tests/test_selection_rule.py do.
     rung_by_postures(make_problem)     one session: closed-form leave-one-out by posture at each strength
     rung_by_sessions(make_sessions)    two or more: leave-one-session-out at each strength
     choose_rung(figures)               the one-standard-error rule over the rungs
+    leave_one_session_out(sessions)    over a list of per-session problems (robocal select's is
+                                       cross_validation's session folds over one problem with sessions)
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import Callable
+from typing import Callable, Sequence
 
 import numpy as np
 
 from robocal.estimation.calibrate import CalibrationOptions, calibrate
 from robocal.estimation.model_criteria import held_out_norms
 from robocal.estimation.model_selection import one_standard_error
+from robocal.estimation.prediction_errors import BlockErrors, primary_errors
 from robocal.estimation.problem import Problem
-from robocal.estimation.session_holdout import held_out_figure, leave_one_session_out, session_norms
+from robocal.estimation.session_holdout import PER_SESSION, held_out_figure, score_session
+from robocal.model.parameters import ParameterSet
 
 STRENGTH_GRID = (0.03, 0.1, 0.3, 1.0, 3.0, None)   # prior sigma in physical scales; None: no prior
 
@@ -77,3 +81,33 @@ def choose_rung(figures: list[RungFigure | None]) -> tuple[int, int]:
     rms = np.array([f.rms if f else np.nan for f in figures])
     se = np.array([f.stderr if f else np.nan for f in figures])
     return one_standard_error(rms, se)
+
+
+def leave_one_session_out(sessions: list[Problem], options: CalibrationOptions | None = None,
+                          per_session: Sequence[str] = PER_SESSION,
+                          fit: Callable[[list[Problem]], ParameterSet] | None = None) -> list[dict[str, BlockErrors]]:
+    """For each session: the errors there of the robot fitted on the others (score_session: the held-out session's per-session frames refitted there; the robot fitted by `calibrate` when one other session remains, else by `fit`, a joint fit of several sessions with their own frames). The problems'
+    parameter values change (each is fitted or scored); start them from the same values."""
+    if len(sessions) < 2:
+        raise ValueError("leave-one-session-out needs two or more sessions")
+    start = [s.params.values() for s in sessions]
+    out = []
+    for k, held in enumerate(sessions):
+        others = [s for j, s in enumerate(sessions) if j != k]
+        for s, v in zip(sessions, start):
+            s.params.set_values(v)
+        if fit is not None:
+            fitted = fit(others)
+        elif len(others) == 1:
+            calibrate(others[0], options)
+            fitted = others[0].params
+        else:
+            raise ValueError("several sessions to fit jointly: pass fit= (a joint fit with per-session frames)")
+        out.append(score_session(fitted, held, per_session, options))
+    return out
+
+
+
+def session_norms(errors: list[dict[str, BlockErrors]]) -> np.ndarray:
+    """Every held-out point's error norm (mm; mrad if no block measures lengths), all sessions pooled."""
+    return np.concatenate([primary_errors(e)[1] for e in errors])

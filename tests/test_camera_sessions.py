@@ -125,6 +125,7 @@ def test_eye_to_hand_the_camera_moved_between_sessions(tmp_path):
     from robocal.design.camera_poses import camera_candidates, simulate_detections
     from robocal.io.camera_target import target_from_dict
     from robocal.io.detections import write_detections
+    from robocal.io.tables import write_csv
     from robocal.model.parameters import robot_parameters
 
     rng = np.random.default_rng(4)
@@ -135,15 +136,13 @@ def test_eye_to_hand_the_camera_moved_between_sessions(tmp_path):
     truth = robot_parameters(robot, joints, "offsets")
     moved = pin.SE3(pin.rpy.rpyToMatrix(0.0, 0.0, np.radians(2.0)), np.array([0.02, -0.02, 0.01])) * C_TRUE
     sessions = []
-    for name, camera_pose in (("first", C_TRUE), ("moved", moved)):
+    for s, (name, camera_pose) in enumerate((("first", C_TRUE), ("moved", moved))):
         values = camera_candidates(robot, joints, "target", "eye_to_hand", camera_pose, target, CAMERA, K_TRUE, 12,
                                    rng, SEED_READING).values
-        labels = [f"{name}{i + 1:02d}" for i in range(len(values))]
+        labels = 100 * (s + 1) + np.arange(1, len(values) + 1)        # 101..., 201...: distinct across sessions
         det = simulate_detections(robot, truth, joints, values, "target", "eye_to_hand", camera_pose, target, CAMERA,
-                                  K_TRUE, NOISE, rng, labels)
-        rows = [",".join(["sample", *joints])] + [",".join([lab, *(f"{v:.17g}" for v in row)])
-                                                    for lab, row in zip(labels, values)]
-        (tmp_path / f"joints_{name}.csv").write_text("\n".join(rows) + "\n")
+                                  K_TRUE, NOISE, rng, [str(lab) for lab in labels])
+        write_csv(tmp_path / f"joints_{name}.csv", {"sample": labels, **dict(zip(joints, values.T))})
         write_detections(tmp_path / f"detections_{name}.csv", det)
         sessions.append({"name": name, "csv": f"joints_{name}.csv"})
     block = {"type": "camera", "name": "cam", "frame": "target", "attached_to": "tool0", "mount": "eye_to_hand",

@@ -14,8 +14,7 @@ from robocal.estimation.model_criteria import (Criteria, HeldOut, Linearised, Mo
                                                information_criteria, inside_others, linearise, log_evidence,
                                                nominal_evidence)
 from robocal.estimation.model_selection import Rung, Selection, ladder, one_standard_error
-from robocal.estimation.session_holdout import (held_out_figure, leave_one_session_out, score_session,
-                                                session_norms)
+from robocal.estimation.session_holdout import held_out_figure, score_session
 from robocal.estimation.parallel_map import map_tasks, monte_carlo
 from robocal.estimation.problem import Problem
 from robocal.estimation.result import CalibrationResult
@@ -27,7 +26,6 @@ __all__ = ["CalibrationOptions", "CameraSetup", "camera_problem", "camera_setup"
            "edge_folds", "kfold", "posture_groups", "range_excess", "BaseSelection", "covariance",
            "select_base_parameters", "iso9283_figures", "Criteria", "HeldOut", "Linearised", "ModelEvidence",
            "approximate_loo", "information_criteria", "inside_others", "linearise", "log_evidence", "nominal_evidence",
-           "Rung", "Selection", "ladder", "one_standard_error", "held_out_figure", "leave_one_session_out",
-           "score_session", "session_norms",
+           "Rung", "Selection", "ladder", "one_standard_error", "held_out_figure", "score_session",
            "map_tasks", "monte_carlo", "Problem", "CalibrationResult", "BlockErrors", "PointStats", "norm_errors",
            "point_stats", "term_errors"]
