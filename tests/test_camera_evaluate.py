@@ -53,9 +53,13 @@ def test_another_session_with_the_board_re_registered_scores_at_the_noise(calibr
     # scatters by 2.2 % (chi-square, 2 dof a corner), and the calibrated model's own uncertainty adds a little
     assert n == 540 and np.sqrt(2) * NOISE_PX * 0.93 < rms < np.sqrt(2) * NOISE_PX * 1.12
     assert report["refitted"] == [f"camera.target.{c}" for c in ("x", "y", "z", "rx", "ry", "rz")]
-    # every image's every corner, in its sample's entry
+    # every image's every corner, in its sample's entry, and each image's RMS under its label
     assert len(report["per_sample"]) == 10
     assert all(len(s["camera 2D reprojection error (px)"]) == 54 for s in report["per_sample"])
+    images = report["blocks"][0]["images"]
+    assert sorted(images) == [f"s2img{i:02d}" for i in range(1, 11)] and all(v["n"] == 54 for v in images.values())
+    pooled = np.sqrt(np.mean([v["rms_norm"] ** 2 for v in images.values()]))
+    assert pooled == pytest.approx(rms, rel=1e-12)
 
 
 def test_without_re_registering_the_moved_board_the_error_shows_it(calibrated):

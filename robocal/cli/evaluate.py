@@ -38,6 +38,11 @@ def cmd_evaluate(args) -> int:
         for label, st in (b.get("points") or {}).items():
             print(f"  {b['name'] + ' ' + label:<20}{'3D position error':<22}{'all':<10}{st['n']:>5}"
                   f"{st['rms_norm']:>9.4g} {b['unit']:<2}{st['max_norm']:>9.4g} {b['unit']}")
+        images = b.get("images") or {}
+        if images and not args.quiet:   # one line an image
+            for label, st in images.items():
+                print(f"  {b['name'] + ' ' + label:<20}{'image':<22}{'':<10}{st['n']:>5}"
+                      f"{st['rms_norm']:>9.4g} {b['unit']:<2}{st['max_norm']:>9.4g} {b['unit']}")
     for o in report.outside:
         beyond = ", ".join(f"{j} {v:+.3g}" for j, v in o["beyond_range"].items())
         print(f"  outside the training range: CSV line {o['csv_line']} ({beyond}, SI)")

@@ -100,6 +100,9 @@ def evaluate_result(result_dir, csv, config, refit: list[str] | None = None,
             if kind == "length" and e.shape[1] > 1 and len(b.labels) == e.shape[1]:
                 # a rigid body's points one by one: the figure of each is what a single-point protocol scores
                 entry["points"] = {lab: norm_rms(e[:, j]) for j, lab in enumerate(b.labels)}
+            if name in setup.cameras:       # a camera's images one by one, by their labels: a bad image shows
+                images = setup.cameras[name].labels
+                entry["images"] = {images[int(i)]: norm_rms(e[s == i]) for i in np.unique(s)}
             blocks.append(entry)
             for k, i in enumerate(s):      # a sample's every term (a camera image: one per corner)
                 per_sample.setdefault(int(i), {"sample": int(i), "csv_line": setup.sample_rows[int(i)][1] + 2,
