@@ -33,7 +33,7 @@ from robocal.estimation.cross_validation import RANGE_MARGIN, range_excess
 from robocal.estimation.physical_scale import physical_scales
 from robocal.estimation.prediction_errors import GROUP
 from robocal.estimation.problem import Problem
-from robocal.estimation.regularisation import RANK_TOL, STRENGTHS, family_strengths, project_out
+from robocal.estimation.regularisation import RANK_TOL, STRENGTHS, evidence_basis, family_strengths, project_out
 from robocal.estimation.registration import register_nominal
 
 UNIT_TO_REPORT = {"length": 1e3, "angle": 1e3}     # SI -> mm, mrad (pixels stay px)
@@ -301,8 +301,9 @@ def nominal_evidence(problem: Problem, options: CalibrationOptions | None = None
     scaled = own | np.isfinite(base)
     if len(set(families[scaled & ~own])) < 2:
         return best
-    by_family = family_evidence_strengths(J, y, np.where(own, given, base), scaled, families, best.strength,
-                                          strengths)
+    # the columns with a user's prior enter at their own sigma, held there ("user prior": a fixed family)
+    by_family, _ = family_strengths(evidence_basis(J, y, np.where(own, given, base)), families[scaled],
+                                    best.strength, np.asarray(strengths, float), fixed=("user prior",))
     lam = np.array([by_family.get(f, 1.0) for f in families])
     ev = log_evidence(J, y, np.where(own, given, lam * base))
     if ev.log_evidence <= best.log_evidence:        # the common strength is already the best (a tie keeps it)
@@ -310,17 +311,3 @@ def nominal_evidence(problem: Problem, options: CalibrationOptions | None = None
                              {f: best.strength for f in families[scaled & ~own]})
     return ModelEvidence(ev.log_evidence, ev.noise2, ev.flat_rank, best.strength,
                          {f: v for f, v in by_family.items() if f != "user prior"})
-
-
-def family_evidence_strengths(J: np.ndarray, y: np.ndarray, sigma: np.ndarray, scaled: np.ndarray,
-                              families: np.ndarray, start: float, strengths) -> dict[str, float]:
-    """regularisation.family_strengths on plain data rows: the unscaled columns projected out, the columns with
-    a user's prior ("user prior") held at their sigma."""
-    rank_flat, (yp, A) = project_out(J[:, ~scaled], np.asarray(y, float), J[:, scaled] * sigma[scaled])
-    U, d, Vt = np.linalg.svd(A, full_matrices=False)
-    z = U.T @ yp
-    m_eff = len(yp) - rank_flat
-    by_family, _ = family_strengths(d, Vt, z, families[scaled], start, np.asarray(strengths, float),
-                                    max(float(yp @ yp - z @ z), 0.0), max(m_eff - len(d), 0),
-                                    max(float(yp @ yp) / max(m_eff, 1), 1e-300), fixed=("user prior",))
-    return by_family

@@ -85,21 +85,46 @@ def profiled_log_evidence(d2: np.ndarray, z2: np.ndarray, rest: float, n_rest: i
     return -neg_log_evidence(t[:, None])[:, 0], np.exp(t)
 
 
-def family_strengths(d: np.ndarray, Vt: np.ndarray, z: np.ndarray, families: np.ndarray, start: float,
-                     strengths: np.ndarray, rest: float, n_rest: int, scale0: float, fixed=()
+@dataclass
+class EvidenceBasis:
+    """The data seen through the prior-scaled columns A (unit strength), the flat columns projected out:
+    A = U diag(d) Vt, z = U^T y, and the data's squared norm outside U (rest, over n_rest rows); scale0 a typical
+    noise variance (the mean square of y) that brackets the profiled one."""
+    d: np.ndarray
+    Vt: np.ndarray
+    z: np.ndarray
+    rest: float
+    n_rest: int
+    scale0: float
+
+
+def evidence_basis(J: np.ndarray, r: np.ndarray, scales: np.ndarray, n_rows: int | None = None) -> EvidenceBasis:
+    """The EvidenceBasis of the columns of J with a finite scale (each multiplied by it; the others flat).
+    n_rows: the number of data rows when J and r are the triangle of [J r] (choose_strength)."""
+    scaled = np.isfinite(scales)
+    rank_flat, (y, A) = project_out(J[:, ~scaled], np.asarray(r, float), J[:, scaled] * scales[scaled])
+    m_eff = (len(y) if n_rows is None else n_rows) - rank_flat
+    U, d, Vt = np.linalg.svd(A, full_matrices=False)
+    z = U.T @ y
+    return EvidenceBasis(d, Vt, z, max(float(y @ y - z @ z), 0.0), max(m_eff - len(d), 0),
+                         max(float(y @ y) / max(m_eff, 1), 1e-300))
+
+
+def family_strengths(basis: EvidenceBasis, families: np.ndarray, start: float, strengths: np.ndarray, fixed=()
                      ) -> tuple[dict[str, float], float]:
     """One strength per scale family, maximising the evidence jointly: from the best common strength, each family
     in turn moves to its best grid value with the others held, until a sweep changes nothing (docs/validation.md,
     "One strength per scale family"). Returns ({family: strength}, the noise variance that goes with it).
 
-    From the unit-strength columns' SVD A = U diag(d) Vt and z = U^T y: per-column strengths L scale them to
+    From the unit-strength columns' SVD A = U diag(d) Vt and z = U^T y (`basis`): per-column strengths L scale them to
     A L = U C with C = diag(d) Vt L, whose SVD C = P S Q^T gives the singular values S and the projections P^T z
     (computed as the eigenvectors of C C^T);
     the part of the data outside the columns' span (rest) does not depend on L. A family in `fixed` (columns
     already scaled by a prior the user gave) keeps strength 1."""
     strengths = np.asarray(strengths, float)
     order = list(dict.fromkeys(families))
-    DV = d[:, None] * Vt
+    z, rest, n_rest, scale0 = basis.z, basis.rest, basis.n_rest, basis.scale0
+    DV = basis.d[:, None] * basis.Vt
     # C C^T = sum over families of lam_f^2 B_f, B_f = D Vt_f Vt_f^T D: its eigenvalues are S^2 and its
     # eigenvectors P (a symmetric k x k problem per candidate, cheaper than the SVD of C)
     gram = {f: DV[:, families == f] @ DV[:, families == f].T for f in order}
@@ -144,23 +169,18 @@ def choose_strength(J: np.ndarray, r: np.ndarray, scales: np.ndarray, strengths=
     """
     scales = np.asarray(scales, float)
     scaled = np.isfinite(scales)
-    rank_flat, (y, A) = project_out(J[:, ~scaled], np.asarray(r, float), J[:, scaled] * scales[scaled])
-    m_eff = (len(y) if n_rows is None else n_rows) - rank_flat
-    U, d, Vt = np.linalg.svd(A, full_matrices=False)
-    z = U.T @ y
-    rest = max(float(y @ y - z @ z), 0.0)
+    basis = evidence_basis(J, r, scales, n_rows)
+    d, Vt, z = basis.d, basis.Vt, basis.z
     k = len(d)
-    n_rest = max(m_eff - k, 0)
-    scale0 = max((y @ y) / max(m_eff, 1), 1e-300)
     lam = np.asarray(strengths, float)
-    curve, noise = profiled_log_evidence((lam[:, None] * d) ** 2, np.broadcast_to(z ** 2, (len(lam), k)), rest,
-                                         n_rest, scale0)
+    curve, noise = profiled_log_evidence((lam[:, None] * d) ** 2, np.broadcast_to(z ** 2, (len(lam), k)), basis.rest,
+                                         basis.n_rest, basis.scale0)
     i = int(np.argmax(curve))
     fam = np.asarray(families if families is not None else ["common"] * len(scales), dtype=object)[scaled]
     by_family = {f: float(lam[i]) for f in dict.fromkeys(fam)}
     noise2 = float(noise[i])
     if len(by_family) > 1 and k:
-        by_family, noise2 = family_strengths(d, Vt, z, fam, lam[i], lam, rest, n_rest, scale0)
+        by_family, noise2 = family_strengths(basis, fam, lam[i], lam)
     stderr = np.full(len(scales), np.inf)
     big = d > RANK_TOL * (d[0] if k else 1.0)
     var = (Vt[big] ** 2 / d[big, None] ** 2).sum(0) * noise2 if k else np.zeros(0)
