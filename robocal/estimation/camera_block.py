@@ -84,15 +84,15 @@ def camera_setup(robot, joint_names, values, labels, det: Detections, target: Ca
                  intrinsics, *, mount: str = "eye_in_hand", frame: str = "camera", attached_to: str = "tool0",
                  name: str = "camera", sigma: float = 0.5, intrinsics_free=True, intrinsics_prior=None,
                  min_corners: int = MIN_CORNERS, sample_ids=None, groups=None,
-                 pnp_cache: dict | None = None) -> CameraSetup:
+                 cache: dict | None = None) -> CameraSetup:
     """The camera block of `det` started at the closed-form solution (module docstring). `values` are the joint
     readings (N, len(joint_names)) in SI, `labels` their sample labels; sample_ids (N,): each reading's sample
     index in the problem the residual goes into (default 0 .. N-1). The frame `frame` is added on `attached_to`
     at the starting placement if the robot has no such frame. Mutates `robot` only so. groups (N,): each
     reading's session when the fixed part (board or camera) was placed anew between sessions; the closed form
     then uses the session with the most images, the others' placements being the sessions' own frames.
-    pnp_cache: a dict kept between set-ups of the same images (robocal select's rungs): each image's PnP and the
-    closed-form hand-eye, keyed by their exact inputs, are solved once."""
+    cache: a dict kept between set-ups of the same images (robocal select's rungs): each image's PnP and the
+    closed-form hand-eye, keyed by their exact inputs, are solved once (solved_once)."""
     check_detections(det, target, camera, min_corners)
     idx = sample_index(det, labels)
     k = camera.check_intrinsics(intrinsics)
@@ -103,15 +103,9 @@ def camera_setup(robot, joint_names, values, labels, det: Detections, target: Ca
     pnp, rms, notes, behind = {}, {}, [], []
     for i in images:
         rows = np.flatnonzero(idx == i)
-        P, uv = target.points_of(det.corners[rows]), det.uv[rows]
-        key = (camera.model, camera.width, camera.height, k.tobytes(), np.asarray(P, float).tobytes(),
-               np.asarray(uv, float).tobytes())
-        if pnp_cache is None or key not in pnp_cache:
-            T, e, _ = solve_pnp(camera, k, P, uv)
-            if pnp_cache is not None:
-                pnp_cache[key] = (T, e)
-        else:
-            T, e = pnp_cache[key]
+        P, uv = np.asarray(target.points_of(det.corners[rows]), float), np.asarray(det.uv[rows], float)
+        T, e = solved_once(cache, ("pnp", camera.model, camera.width, camera.height, k.tobytes(), P.tobytes(),
+                                   uv.tobytes()), lambda: solve_pnp(camera, k, P, uv)[:2])
         pnp[int(i)], rms[int(i)] = T, e
         if target.planar and T.rotation[2, 2] <= 0:
             behind.append((int(i), int(rows[0])))
@@ -124,8 +118,8 @@ def camera_setup(robot, joint_names, values, labels, det: Detections, target: Ca
         raise InputError(f"the target is seen from behind in {len(behind)} image(s) (samples "
                          f"{', '.join(str(labels[i]) for i, _ in behind[:5])}): its printed face points away from "
                          "the camera, so the corner ids run mirrored; check the target's corner numbering "
-                         "(docs/camera.md, target frame)", source=det.source_of(behind[0][1]), row=det.line(behind[0][1]),
-                         field="corner")
+                         "(docs/camera.md, target frame)", source=det.source_of(behind[0][1]),
+                         row=det.line(behind[0][1]), field="corner")
     closed = images
     if groups is not None:          # one fixed placement a session: the closed form within the fullest one
         g = np.asarray(groups)[images]
@@ -141,12 +135,8 @@ def camera_setup(robot, joint_names, values, labels, det: Detections, target: Ca
     # eye-in-hand X: camera on the flange, W: target in the world; eye-to-hand X: camera in the world, W: target
     # on the flange
     A = F if mount == "eye_in_hand" else [f.inverse() for f in F]
-    key = ("hand_eye", b"".join(a.homogeneous.tobytes() + t.homogeneous.tobytes() for a, t in zip(A, T)))
-    he = pnp_cache.get(key) if pnp_cache is not None else None
-    if he is None:
-        he = hand_eye(A, T)
-        if pnp_cache is not None:
-            pnp_cache[key] = he
+    he = solved_once(cache, ("hand_eye", b"".join(a.homogeneous.tobytes() + t.homogeneous.tobytes()
+                                                  for a, t in zip(A, T))), lambda: hand_eye(A, T))
     placement, fixed = (he.X, he.W) if mount == "eye_in_hand" else (he.W, he.X)
     start = place_frame(robot, frame, attached_to, placement)
     order = np.argsort(idx, kind="stable")
@@ -159,6 +149,16 @@ def camera_setup(robot, joint_names, values, labels, det: Detections, target: Ca
     res.lines = None if det.lines is None else det.lines[order]
     return CameraSetup(res, frame, attached_to, placement, start, pnp, rms, he, notes,
                        {int(ids[i]): str(labels[i]) for i in images})
+
+
+def solved_once(cache: dict | None, key: tuple, solve):
+    """solve(), or what it returned for `key` before: the set-up's solutions depend on their inputs only, which
+    the key holds exactly (bytes), so a kept one is the one solve() would give again."""
+    if cache is None:
+        return solve()
+    if key not in cache:
+        cache[key] = solve()
+    return cache[key]
 
 
 def place_frame(robot, frame: str, attached_to: str, placement: pin.SE3) -> dict[str, float]:

@@ -49,7 +49,7 @@ class Selection:
     rule: str = "one-standard-error rule: the simplest model within one standard error of the lowest held-out RMS"
     notes: list[str] = field(default_factory=list)
     fits: dict = field(default_factory=dict, repr=False)   # rung index -> (setup, nominal, result) of its full fit
-    pnp_cache: dict = field(default_factory=dict, repr=False)   # the camera blocks' PnP solutions, for the final fit
+    camera_cache: dict = field(default_factory=dict, repr=False)   # camera set-ups' solutions, for the final fit
 
     def table(self) -> list[str]:
         unit = next((r.cv.unit for r in self.rungs if r.cv), "mm")

@@ -92,7 +92,7 @@ def image_labels(tab: Table, rows) -> list[str]:
 
 
 def camera_residual(robot, m: MeasurementConfig, source: str, joint_names, values: np.ndarray, labels,
-                    sample_ids, sessions: np.ndarray | None, pnp_cache: dict | None = None) -> CameraSetup:
+                    sample_ids, sessions: np.ndarray | None, camera_cache: dict | None = None) -> CameraSetup:
     """Set up one camera block over its images: values (N, n_joints) SI, labels, sample_ids in the problem;
     sessions (N,): each image's session (the board or camera placed anew in each), None for one session."""
     cam = m.camera
@@ -117,7 +117,7 @@ def camera_residual(robot, m: MeasurementConfig, source: str, joint_names, value
     return camera_setup(robot, joint_names, values, labels, det, target, spec.model, spec.intrinsics,
                         mount=cam.mount, frame=m.frame, attached_to=cam.attached_to, name=m.name,
                         sigma=float(m.sigma), intrinsics_free=spec.free, intrinsics_prior=spec.prior,
-                        min_corners=cam.min_corners, sample_ids=sample_ids, groups=sessions, pnp_cache=pnp_cache)
+                        min_corners=cam.min_corners, sample_ids=sample_ids, groups=sessions, cache=camera_cache)
 
 
 
@@ -134,8 +134,8 @@ def camera_detections(config, given: dict | None) -> dict[str, Path]:
     names = {m.name for m in blocks}
     unknown = sorted(set(given) - names)
     if unknown:
-        raise InputError(f"no camera block named {', '.join(unknown)} (camera blocks: {', '.join(sorted(names)) or 'none'})",
-                         source=config.source, field="--detections")
+        raise InputError(f"no camera block named {', '.join(unknown)} (camera blocks: "
+                         f"{', '.join(sorted(names)) or 'none'})", source=config.source, field="--detections")
     missing = [m for m in blocks if m.name not in given]
     if missing:
         raise InputError(f"camera block '{missing[0].name}' scores the new images from their own detections: pass "
@@ -164,8 +164,8 @@ def with_camera_frames_of(config, setup):
         frame = robot.model.frames[robot.frame_id(m.frame)]
         parent = robot.model.frames[robot.frame_id(m.camera.attached_to)]
         rel = parent.placement.inverse() * frame.placement
-        added.append(FrameSpec(m.frame, m.camera.attached_to,
-                               Placement(tuple(rel.translation.tolist()), tuple(pin.rpy.matrixToRpy(rel.rotation).tolist()))))
+        xyz, rpy = tuple(rel.translation.tolist()), tuple(pin.rpy.matrixToRpy(rel.rotation).tolist())
+        added.append(FrameSpec(m.frame, m.camera.attached_to, Placement(xyz, rpy)))
     if not added:
         return config
     return dataclasses.replace(config, robot=dataclasses.replace(config.robot, frames=(*config.robot.frames, *added)))

@@ -30,8 +30,8 @@ def select_model(config, folds: int | None = None, loo: bool = False, group: str
     With the closed form, each rung keeps its fitted setup (`Selection.fits`): run_selected writes the chosen
     one without fitting it again."""
     config = config if isinstance(config, CalibrationConfig) else read_config(config)
-    pnp_cache: dict = {}                   # every rung sees the same images: a camera's PnP solved once each
-    base = build_setup(config, pnp_cache=pnp_cache)
+    camera_cache: dict = {}                # every rung sees the same images: a camera's PnP solved once each
+    base = build_setup(config, camera_cache=camera_cache)
     notes = check_inputs(base, allow_failed)
     closed_form = base.problem.sessions is None and folds is None and not loo and not group and not refits
     if closed_form:
@@ -49,7 +49,7 @@ def select_model(config, folds: int | None = None, loo: bool = False, group: str
             if spare is not None and rung_config == config:
                 setup, spare = spare, None     # not built twice
             else:
-                setup = build_setup(rung_config, pnp_cache=pnp_cache)
+                setup = build_setup(rung_config, camera_cache=camera_cache)
         except InputError as exc:
             rung.skipped = exc.reason
             continue
@@ -71,7 +71,7 @@ def select_model(config, folds: int | None = None, loo: bool = False, group: str
         label += ", " + hows[0][1]
     elif hows:                        # a rung the closed form does not allow was refitted
         label += ", " + "; ".join(f"{name}: {h}" for name, h in hows)
-    return Selection(rungs, chosen, best, label, notes=notes, fits=fits, pnp_cache=pnp_cache)
+    return Selection(rungs, chosen, best, label, notes=notes, fits=fits, camera_cache=camera_cache)
 
 
 def run_selected(config, selection: Selection, output_dir: str | Path | None = None, *, force: bool = False,
@@ -86,6 +86,6 @@ def run_selected(config, selection: Selection, output_dir: str | Path | None = N
                                fitted=(nominal, result))
     config = config if isinstance(config, CalibrationConfig) else read_config(config)
     setup = build_setup(with_parameters(config, selection.rungs[selection.chosen].parameters),
-                        pnp_cache=selection.pnp_cache)
+                        camera_cache=selection.camera_cache)
     return run_calibration(setup, output_dir, force=force, allow_failed=allow_failed, extra=extra,
                            source=str(config.source))

@@ -91,14 +91,15 @@ def default_joints(robot: Robot, frames: Sequence[str]) -> list[str]:
 
 
 def build_setup(config: CalibrationConfig, *, table: Table | None = None,
-                block_rows: Sequence[np.ndarray] | None = None, sigma=None, pnp_cache: dict | None = None) -> Setup:
+                block_rows: Sequence[np.ndarray] | None = None, sigma=None, camera_cache: dict | None = None) -> Setup:
     """The Setup of a checked config.
 
     table       read every measurement block from this table (in the config's units) instead of the
                 data files: `robocal simulate`, `robocal plan`, a validation file
     block_rows  the rows of `table` each block uses (instead of its `where`)
     sigma       replaces every block's sigma (robocal plan's `noise`), in data units
-    pnp_cache   a dict shared by set-ups of the same images (camera_block.camera_setup)
+    camera_cache  a dict shared by set-ups of the same images: each camera image's PnP and the hand-eye
+                  solved once (camera_block.solved_once)
     """
     source, data = config.source, config.data
     robot = build_robot(config.robot, source)
@@ -137,7 +138,7 @@ def build_setup(config: CalibrationConfig, *, table: Table | None = None,
             several = data.sessions or data.session_column
             cameras[m.name] = camera_residual(robot, m, source, list(joint_cols), np.array([values[k] for k in idx]),
                                               labels_of, idx, np.array([session_of[k] for k in idx]) if several
-                                              else None, pnp_cache)
+                                              else None, camera_cache)
             residuals.append(cameras[m.name].residual)
             continue
         residuals.append(residual_from_block(REGISTRY[m.type], m, source, rows_all, np.array(idx), data.units,
