@@ -132,3 +132,20 @@ def test_the_profiled_noise_variance_is_the_minimum_of_a_fine_scan(n_rest):
         scan = -0.5 * (np.sum(z2[c] / v, axis=1) + np.sum(np.log(v), axis=1) + rest * np.exp(-t) + n_rest * t)
         assert values[c] >= scan.max() - 1e-9
         assert abs(t[np.argmax(scan)] - np.log(s2[c])) < 2e-4
+
+
+def test_the_noise_variance_s_slope_and_curvature_match_finite_differences():
+    """regularisation.noise_slope_and_curvature against central differences of neg_log_evidence in t = log s2,
+    with and without rows outside the columns' span, at t across decades (h = 1e-4: truncation ~1e-8 relative)."""
+    from robocal.estimation.regularisation import neg_log_evidence, noise_slope_and_curvature
+    rng = np.random.default_rng(12)
+    d2 = np.exp(rng.normal(0, 3, (5, 9)))
+    z2 = rng.exponential(1.0, (5, 9))
+    h = 1e-4
+    for rest, n_rest in ((0.0, 0), (17.0, 30)):
+        for t0 in (-4.0, 0.0, 3.0):
+            t = np.full(5, t0)
+            g, c = noise_slope_and_curvature(t, d2, z2, rest, n_rest)
+            f = [neg_log_evidence((t + k * h)[:, None], d2, z2, rest, n_rest)[:, 0] for k in (-1, 0, 1)]
+            np.testing.assert_allclose(g, (f[2] - f[0]) / (2 * h), rtol=1e-6, atol=1e-7)
+            np.testing.assert_allclose(c, (f[2] - 2 * f[1] + f[0]) / h ** 2, rtol=1e-4, atol=1e-4)

@@ -45,34 +45,37 @@ def project_out(J_flat: np.ndarray, *arrays: np.ndarray) -> tuple[int, list[np.n
     return rank, [a - Q @ (Q.T @ a) for a in arrays]
 
 
+def neg_log_evidence(t: np.ndarray, d2: np.ndarray, z2: np.ndarray, rest: float, n_rest: int) -> np.ndarray:
+    """-log evidence (without its 2 pi term) of each candidate (a row of d2, z2) over a (candidates, points) array
+    of t = log s2, the noise variance's logarithm."""
+    v = np.exp(t)[..., None] + d2[:, None, :]
+    return 0.5 * (np.sum(z2[:, None, :] / v, axis=-1) + np.sum(np.log(v), axis=-1) + rest * np.exp(-t)
+                  + n_rest * t)
+
+
+def noise_slope_and_curvature(t: np.ndarray, d2: np.ndarray, z2: np.ndarray, rest: float, n_rest: int
+                              ) -> tuple[np.ndarray, np.ndarray]:
+    """d/dt and d2/dt2 of neg_log_evidence at one t per candidate (a = s2 / v, q = z2 / v)."""
+    s2 = np.exp(t)
+    a = s2[:, None] / (s2[:, None] + d2)
+    q = z2 * a / s2[:, None]
+    return (0.5 * (np.sum(a - q * a, axis=1) - rest / s2 + n_rest),
+            0.5 * (np.sum(q * a * (2 * a - 1) + a - a * a, axis=1) + rest / s2))
+
+
 def profiled_log_evidence(d2: np.ndarray, z2: np.ndarray, rest: float, n_rest: int,
                           scale0: float) -> tuple[np.ndarray, np.ndarray]:
     """For each candidate prior (a row of d2: the squared singular values of the prior-scaled columns; z2: the
     squared projections of the data on their left singular vectors), the log evidence maximised over the noise
     variance s2, and that s2. rest: the data's squared norm outside those singular vectors, over n_rest rows."""
     rest = rest if n_rest else 0.0
-
-    def neg_log_evidence(t: np.ndarray) -> np.ndarray:
-        """Over a (candidates, points) array of t = log s2."""
-        v = np.exp(t)[..., None] + d2[:, None, :]
-        return 0.5 * (np.sum(z2[:, None, :] / v, axis=-1) + np.sum(np.log(v), axis=-1) + rest * np.exp(-t)
-                      + n_rest * t)
-
-    def slope_and_curvature(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """d/dt and d2/dt2 of neg_log_evidence at one t per candidate (a = s2 / v, q = z2 / v)."""
-        s2 = np.exp(t)
-        a = s2[:, None] / (s2[:, None] + d2)
-        q = z2 * a / s2[:, None]
-        return (0.5 * (np.sum(a - q * a, axis=1) - rest / s2 + n_rest),
-                0.5 * (np.sum(q * a * (2 * a - 1) + a - a * a, axis=1) + rest / s2))
-
     # each candidate's best t: the best of a grid one e-fold apart over the bracket, then Newton's method kept
     # inside a bracket a step either side of it (bisection where a step leaves it), for every candidate at once
     grid = np.log(scale0) + np.arange(-30.0, 5.01, 1.0)
-    t = grid[np.argmin(neg_log_evidence(np.broadcast_to(grid, (len(d2), len(grid)))), axis=1)]
+    t = grid[np.argmin(neg_log_evidence(np.broadcast_to(grid, (len(d2), len(grid))), d2, z2, rest, n_rest), axis=1)]
     lo, hi = np.maximum(t - 1.0, grid[0]), np.minimum(t + 1.0, grid[-1])
     for _ in range(100):
-        g, h = slope_and_curvature(t)
+        g, h = noise_slope_and_curvature(t, d2, z2, rest, n_rest)
         lo, hi = np.where(g < 0, t, lo), np.where(g > 0, t, hi)    # the minimum lies where the slope turns +
         with np.errstate(divide="ignore", invalid="ignore"):
             step = np.where(h > 0, -g / h, np.nan)
@@ -82,7 +85,7 @@ def profiled_log_evidence(d2: np.ndarray, z2: np.ndarray, rest: float, n_rest: i
         t = new
         if np.all(done):
             break
-    return -neg_log_evidence(t[:, None])[:, 0], np.exp(t)
+    return -neg_log_evidence(t[:, None], d2, z2, rest, n_rest)[:, 0], np.exp(t)
 
 
 @dataclass
